@@ -1,0 +1,84 @@
+"""Rigid transforms, the arm-centric frame and rotation helpers.
+
+Quaternions are (x, y, z, w) everywhere in this package (SciPy's convention). The arm-centric frame of
+an arm has its origin at the arm's base and its x axis pointing from the base towards the table, so a
+single-arm policy trained with its arm at the origin can serve either arm of a bimanual robot.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+
+def make_transform(rotation: np.ndarray, translation: np.ndarray) -> np.ndarray:
+    out = np.eye(4)
+    out[:3, :3] = rotation
+    out[:3, 3] = translation
+    return out
+
+
+def transform_points(transform: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """Apply a 4x4 transform to points of shape (..., 3)."""
+    return points @ transform[:3, :3].T.astype(points.dtype) + transform[:3, 3].astype(points.dtype)
+
+
+@dataclass(frozen=True)
+class ArmFrame:
+    """Pose of an arm's base in the world: position (3,) and yaw about world z (radians)."""
+
+    position: tuple[float, float, float]
+    yaw: float = 0.0
+
+    @property
+    def base_to_world(self) -> np.ndarray:
+        return make_transform(Rotation.from_euler("z", self.yaw).as_matrix(), np.asarray(self.position))
+
+    @property
+    def world_to_base(self) -> np.ndarray:
+        return np.linalg.inv(self.base_to_world)
+
+    def points_to_arm(self, points: np.ndarray) -> np.ndarray:
+        return transform_points(self.world_to_base, points)
+
+    def points_to_world(self, points: np.ndarray) -> np.ndarray:
+        return transform_points(self.base_to_world, points)
+
+    def pose_to_arm(self, position: np.ndarray, quat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        rot = Rotation.from_euler("z", -self.yaw) * Rotation.from_quat(quat)
+        return self.points_to_arm(np.asarray(position, dtype=np.float64)), canonical_quat(rot.as_quat())
+
+    def pose_to_world(self, position: np.ndarray, quat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        rot = Rotation.from_euler("z", self.yaw) * Rotation.from_quat(quat)
+        return self.points_to_world(np.asarray(position, dtype=np.float64)), canonical_quat(rot.as_quat())
+
+
+def canonical_quat(quat: np.ndarray) -> np.ndarray:
+    """Unit quaternion with w >= 0 (q and -q are the same rotation)."""
+    q = np.asarray(quat, dtype=np.float64)
+    q = q / np.linalg.norm(q, axis=-1, keepdims=True)
+    return np.where(q[..., 3:4] < 0, -q, q)
+
+
+def quat_to_euler_bins(quat: np.ndarray, bin_degrees: float) -> np.ndarray:
+    """Discretise a rotation into per-axis bins of its xyz Euler angles (PerAct's rotation output)."""
+    euler = Rotation.from_quat(quat).as_euler("xyz", degrees=True)  # each in (-180, 180]
+    n_bins = int(round(360 / bin_degrees))
+    return np.clip(np.floor((euler + 180.0) / bin_degrees).astype(np.int64), 0, n_bins - 1)
+
+
+def euler_bins_to_quat(bins: np.ndarray, bin_degrees: float) -> np.ndarray:
+    euler = np.asarray(bins, dtype=np.float64) * bin_degrees - 180.0 + bin_degrees / 2
+    return canonical_quat(Rotation.from_euler("xyz", euler, degrees=True).as_quat())
+
+
+def compose_rotation(quat: np.ndarray, rotvec: np.ndarray) -> np.ndarray:
+    """Apply a residual rotation (axis-angle, world-aligned) on SO(3): R = exp(rotvec) * R_base."""
+    return canonical_quat((Rotation.from_rotvec(rotvec) * Rotation.from_quat(quat)).as_quat())
+
+
+def rotation_difference(quat_target: np.ndarray, quat_base: np.ndarray) -> np.ndarray:
+    """Axis-angle r with exp(r) * R_base = R_target (inverse of ``compose_rotation``)."""
+    return (Rotation.from_quat(quat_target) * Rotation.from_quat(quat_base).inv()).as_rotvec()

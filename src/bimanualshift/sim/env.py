@@ -1,0 +1,240 @@
+"""Gymnasium environment: one step = one keyframe per arm, executed by a motion executor.
+
+Observation (a dict): ``cameras`` {name: {rgb, depth, instance, class}}, ``intrinsics`` / ``extrinsics``
+{name: matrix}, ``proprio`` (n_arms, 8) = end-effector position, quaternion (x, y, z, w), gripper open, in
+the world frame, ``instruction`` (str), ``keyframe_index`` (int). Action: (n_arms, 9) per arm
+``[x, y, z, qx, qy, qz, qw, gripper_open, ignore_collisions]`` in the world frame. Cameras are rendered
+once per keyframe, never at every control step.
+"""
+
+from __future__ import annotations
+
+import copy
+from typing import Any
+
+import gymnasium as gym
+import mujoco
+import numpy as np
+from scipy.spatial.transform import Rotation, Slerp
+
+from bimanualshift.geometry.frames import ArmFrame, canonical_quat
+from bimanualshift.sim.cameras import CameraRig, default_camera_names, wrist_camera_names
+from bimanualshift.sim.scene import TABLE_TOP_Z, RobosuiteScene
+from bimanualshift.sim.segmentation import SceneInstances
+from bimanualshift.sim.task import ACTION_DIM, ArmAction, Keyframe, SimHandle, Task, make_task
+
+PROPRIO_DIM = 8
+WORKSPACE_LOW = np.array([-0.55, -0.75, TABLE_TOP_Z - 0.02])
+WORKSPACE_HIGH = np.array([0.45, 0.75, TABLE_TOP_Z + 0.65])
+
+
+class InvalidActionError(ValueError):
+    """An action with the wrong shape, NaNs or a target outside the reachable workspace."""
+
+
+class ManipulationEnv(gym.Env):
+    metadata = {"render_modes": ["rgb_array"]}
+
+    def __init__(self, task: str | Task, image_size: int = 128, camera_names: tuple[str, ...] | None = None,
+                 max_steps_per_keyframe: int = 90) -> None:
+        self.task = make_task(task) if isinstance(task, str) else task
+        self.arm_names = self.task.arm_names
+        self.scene = RobosuiteScene(self.task)
+        self.scene.reset()
+        self.model: mujoco.MjModel = self.scene.sim.model._model
+        self.data: mujoco.MjData = self.scene.sim.data._data
+        self.sim = SimHandle(self.model, self.data, TABLE_TOP_Z)
+        self.camera_names = camera_names or default_camera_names(self.arm_names)
+        self.cameras = CameraRig(self.model, self.camera_names, wrist_camera_names(self.arm_names),
+                                 image_size, image_size)
+        self.instances = SceneInstances.from_model(self.model, self.task, self.arm_names)
+        self.arm_frames: dict[str, ArmFrame] = self.scene.arm_frames()
+        self.max_steps_per_keyframe = max_steps_per_keyframe
+        self.keyframe_index = 0
+        self.gripper_open = {arm: 1.0 for arm in self.arm_names}
+        n = len(self.arm_names)
+        self.action_space = gym.spaces.Box(-np.inf, np.inf, shape=(n, ACTION_DIM), dtype=np.float32)
+        self.observation_space = gym.spaces.Dict({
+            "proprio": gym.spaces.Box(-np.inf, np.inf, shape=(n, PROPRIO_DIM), dtype=np.float32),
+            "instruction": gym.spaces.Text(max_length=256),
+            "keyframe_index": gym.spaces.Discrete(self.task.max_keyframes + 1),
+        })
+
+    # ---- episode control -------------------------------------------------------------------------------
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None
+              ) -> tuple[dict[str, Any], dict[str, Any]]:
+        super().reset(seed=seed)
+        self.scene.reset()  # soft reset: robots back to their initial joints, controllers cleared
+        self.task.initialize_episode(self.sim, np.random.default_rng(seed))
+        mujoco.mj_forward(self.model, self.data)
+        self.keyframe_index = 0
+        self.gripper_open = {arm: 1.0 for arm in self.arm_names}
+        self._settle(steps=5)
+        render = True if options is None else bool(options.get("render", True))
+        return self.observe(render=render), {"instruction": self.task.instruction()}
+
+    def step(self, action: np.ndarray, render: bool = True
+             ) -> tuple[dict[str, Any], float, bool, bool, dict[str, Any]]:
+        targets = self._parse_action(action)
+        self.execute(targets)
+        self.keyframe_index += 1
+        success = self.task.evaluate_success(self.sim)
+        truncated = self.keyframe_index >= self.task.max_keyframes
+        return self.observe(render=render), float(success), success, truncated, {"success": success}
+
+    def expert_keyframes(self) -> list[Keyframe]:
+        return self.task.expert_keyframes(self.sim)
+
+    def success(self) -> bool:
+        return self.task.evaluate_success(self.sim)
+
+    # ---- state -----------------------------------------------------------------------------------------
+    def get_state(self) -> dict[str, Any]:
+        return {
+            "qpos": self.data.qpos.copy(),
+            "qvel": self.data.qvel.copy(),
+            "act": self.data.act.copy(),
+            "body_pos": self.model.body_pos.copy(),
+            "geom_rgba": self.model.geom_rgba.copy(),
+            "episode": copy.deepcopy(self.task.episode),
+            "keyframe_index": self.keyframe_index,
+            "gripper_open": dict(self.gripper_open),
+        }
+
+    def set_state(self, state: dict[str, Any]) -> None:
+        for key in ("qpos", "qvel", "act", "body_pos", "geom_rgba"):
+            target = getattr(self.data if key in ("qpos", "qvel", "act") else self.model, key)
+            if np.shape(state[key]) != target.shape:
+                raise ValueError(f"state[{key!r}] has shape {np.shape(state[key])}, this scene needs {target.shape}")
+            target[:] = state[key]
+        self.task.episode = copy.deepcopy(state["episode"])
+        self.keyframe_index = int(state["keyframe_index"])
+        self.gripper_open = dict(state["gripper_open"])
+        mujoco.mj_forward(self.model, self.data)
+
+    # ---- observation -----------------------------------------------------------------------------------
+    def proprio(self) -> np.ndarray:
+        rows = []
+        for i, arm in enumerate(self.arm_names):
+            pos, quat = self.eef_pose(i)
+            rows.append(np.r_[pos, quat, self.gripper_open[arm]])
+        return np.asarray(rows, dtype=np.float32)
+
+    def observe(self, render: bool = True) -> dict[str, Any]:
+        obs: dict[str, Any] = {
+            "proprio": self.proprio(),
+            "instruction": self.task.instruction(),
+            "keyframe_index": self.keyframe_index,
+        }
+        if render:
+            frames = self.cameras.render(self.data)
+            obs["cameras"] = {
+                name: {
+                    "rgb": f.rgb,
+                    "depth": f.depth,
+                    "instance": self.instances.instance_of_geom(f.geom),
+                    "class": self.instances.class_of_geom(f.geom),
+                }
+                for name, f in frames.items()
+            }
+            obs["intrinsics"] = {name: f.intrinsics for name, f in frames.items()}
+            obs["extrinsics"] = {name: f.extrinsics for name, f in frames.items()}
+        return obs
+
+    def render(self) -> np.ndarray:
+        return self.cameras.render(self.data, depth_and_segmentation=False)[self.camera_names[0]].rgb
+
+    # ---- execution -------------------------------------------------------------------------------------
+    def eef_pose(self, robot_index: int) -> tuple[np.ndarray, np.ndarray]:
+        robot = self.scene.robots[robot_index]
+        site = robot.eef_site_id["right"]
+        pos = self.data.site_xpos[site].copy()
+        quat = canonical_quat(Rotation.from_matrix(self.data.site_xmat[site].reshape(3, 3)).as_quat())
+        return pos, quat
+
+    def _parse_action(self, action: np.ndarray) -> Keyframe:
+        a = np.asarray(action, dtype=np.float64)
+        n = len(self.arm_names)
+        if a.shape != (n, ACTION_DIM):
+            raise InvalidActionError(
+                f"action must have shape ({n}, {ACTION_DIM}) = one row per arm {self.arm_names} of "
+                f"[x, y, z, qx, qy, qz, qw, gripper_open, ignore_collisions]; got shape {a.shape}"
+            )
+        if not np.all(np.isfinite(a)):
+            raise InvalidActionError(f"action contains NaN or infinite values: {a.tolist()}")
+        targets = {}
+        for arm, row in zip(self.arm_names, a):
+            if np.any(row[:3] < WORKSPACE_LOW) or np.any(row[:3] > WORKSPACE_HIGH):
+                raise InvalidActionError(
+                    f"{arm} arm target {row[:3].round(3).tolist()} is outside the workspace "
+                    f"{WORKSPACE_LOW.tolist()} .. {WORKSPACE_HIGH.tolist()} (world frame, metres)"
+                )
+            if np.linalg.norm(row[3:7]) < 1e-6:
+                raise InvalidActionError(f"{arm} arm quaternion {row[3:7].tolist()} has zero norm")
+            targets[arm] = ArmAction(row[:3], canonical_quat(row[3:7]), float(row[7] > 0.5), float(row[8] > 0.5))
+        return targets
+
+    def _robot_command(self, positions: dict[str, np.ndarray], rotations: dict[str, Rotation]) -> np.ndarray:
+        parts = []
+        for arm in self.arm_names:
+            grip = -1.0 if self.gripper_open[arm] > 0.5 else 1.0
+            parts.append(np.r_[positions[arm], rotations[arm].as_rotvec(), grip])
+        return np.concatenate(parts)
+
+    def _control_step(self, command: np.ndarray) -> None:
+        self.scene.step(command)
+        self.task.on_control_step(self.sim)
+
+    def _settle(self, steps: int) -> None:
+        positions, rotations = {}, {}
+        for i, arm in enumerate(self.arm_names):
+            pos, quat = self.eef_pose(i)
+            positions[arm], rotations[arm] = pos, Rotation.from_quat(quat)
+        for _ in range(steps):
+            self._control_step(self._robot_command(positions, rotations))
+
+    def execute(self, targets: Keyframe, max_step_m: float = 0.012, max_step_rad: float = 0.1) -> bool:
+        """Move every arm to its keyframe pose, then switch grippers. Returns whether all poses were reached.
+
+        Plays the role of RLBench's motion planner: the commanded pose advances towards the target by at
+        most ``max_step_m`` / ``max_step_rad`` per control step and the OSC controller tracks it.
+        """
+        start = {arm: self.eef_pose(i) for i, arm in enumerate(self.arm_names)}
+        cmd_pos = {arm: start[arm][0].copy() for arm in self.arm_names}
+        slerps, fractions, rot_steps = {}, {}, {}
+        for arm in self.arm_names:
+            r0, r1 = Rotation.from_quat(start[arm][1]), Rotation.from_quat(targets[arm].quat)
+            slerps[arm] = Slerp([0.0, 1.0], Rotation.concatenate([r0, r1]))
+            angle = (r1 * r0.inv()).magnitude()
+            rot_steps[arm] = 1.0 if angle < 1e-6 else min(1.0, max_step_rad / angle)
+            fractions[arm] = 0.0
+        reached = False
+        for _ in range(self.max_steps_per_keyframe):
+            rotations = {}
+            for arm in self.arm_names:
+                delta = targets[arm].position - cmd_pos[arm]
+                dist = np.linalg.norm(delta)
+                cmd_pos[arm] = cmd_pos[arm] + (delta if dist <= max_step_m else delta * max_step_m / dist)
+                fractions[arm] = min(1.0, fractions[arm] + rot_steps[arm])
+                rotations[arm] = slerps[arm](fractions[arm])
+            self._control_step(self._robot_command(cmd_pos, rotations))
+            reached = all(self._pose_error(i, targets[arm]) for i, arm in enumerate(self.arm_names))
+            if reached:
+                break
+        changed = [arm for arm in self.arm_names if targets[arm].gripper_open != self.gripper_open[arm]]
+        if changed:
+            for arm in changed:
+                self.gripper_open[arm] = targets[arm].gripper_open
+            final_rot = {arm: Rotation.from_quat(targets[arm].quat) for arm in self.arm_names}
+            for _ in range(12):
+                self._control_step(self._robot_command(cmd_pos, final_rot))
+        return reached
+
+    def _pose_error(self, robot_index: int, target: ArmAction, tol_m: float = 0.006, tol_rad: float = 0.06) -> bool:
+        pos, quat = self.eef_pose(robot_index)
+        ang = (Rotation.from_quat(target.quat) * Rotation.from_quat(quat).inv()).magnitude()
+        return bool(np.linalg.norm(pos - target.position) < tol_m and ang < tol_rad)
+
+    def close(self) -> None:
+        self.cameras.close()
+        self.scene.close()

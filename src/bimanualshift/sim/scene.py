@@ -1,0 +1,87 @@
+"""The robosuite scene: one or two Franka Pandas side by side facing a table, plus a task's objects.
+
+robosuite supplies the robots, grippers, table arena and the operational-space controller; the task
+supplies its objects as MJCF. Robots are commanded with absolute end-effector poses in the world frame.
+"""
+
+from __future__ import annotations
+
+import xml.etree.ElementTree as ET
+
+
+import numpy as np
+from robosuite.controllers import load_composite_controller_config
+from robosuite.environments.manipulation.manipulation_env import ManipulationEnv
+from robosuite.models.arenas import TableArena
+from robosuite.models.tasks import ManipulationTask
+
+from bimanualshift.geometry.frames import ArmFrame
+from bimanualshift.sim.cameras import STATIC_CAMERAS, camera_xml
+from bimanualshift.sim.task import Task
+
+TABLE_SIZE = (0.8, 1.6, 0.05)
+TABLE_TOP_Z = 0.8
+ROBOT_X = -0.16 - TABLE_SIZE[0] / 2  # robosuite's default base offset for a table
+BIMANUAL_ARM_Y = {"left": 0.3, "right": -0.3}  # the robot's left is +y when it faces +x
+UNIMANUAL_ARM_Y = {"right": 0.0}
+
+
+def arm_base_y(task: Task) -> dict[str, float]:
+    return BIMANUAL_ARM_Y if task.bimanual else UNIMANUAL_ARM_Y
+
+
+def controller_config() -> dict:
+    cfg = load_composite_controller_config(controller="BASIC", robot="Panda")
+    for part in cfg["body_parts"].values():
+        if part.get("type") == "OSC_POSE":
+            part["input_type"] = "absolute"
+            part["input_ref_frame"] = "world"
+            part["kp"] = 300  # stiffer than the default so presses and grasps reach their targets
+    return cfg
+
+
+class RobosuiteScene(ManipulationEnv):
+    """A robosuite environment whose objects, success and resets are defined by a ``Task``."""
+
+    def __init__(self, task: Task, **kwargs) -> None:
+        self.task = task
+        self.arm_names = task.arm_names
+        n = len(self.arm_names)
+        super().__init__(
+            robots=["Panda"] * n,
+            controller_configs=[controller_config()] * n,
+            has_renderer=False,
+            has_offscreen_renderer=False,
+            use_camera_obs=False,
+            hard_reset=False,
+            control_freq=20,
+            horizon=10**9,
+            ignore_done=True,
+            initialization_noise=None,
+            **kwargs,
+        )
+
+    def _load_model(self) -> None:
+        super()._load_model()
+        ys = arm_base_y(self.task)
+        for robot, arm in zip(self.robots, self.arm_names):
+            xpos = np.array(robot.robot_model.base_xpos_offset["table"](TABLE_SIZE[0]))
+            robot.robot_model.set_base_xpos(xpos + np.array([0.0, ys[arm], 0.0]))
+        arena = TableArena(table_full_size=TABLE_SIZE, table_offset=(0.0, 0.0, TABLE_TOP_Z))
+        arena.set_origin([0, 0, 0])
+        self.model = ManipulationTask(mujoco_arena=arena, mujoco_robots=[r.robot_model for r in self.robots])
+        for name, (pos, target) in STATIC_CAMERAS.items():
+            self.model.worldbody.append(camera_xml(name, pos, target))
+        objects = ET.fromstring(f"<root>{self.task.scene_xml()}</root>")
+        for element in objects:
+            self.model.worldbody.append(element)
+
+    def reward(self, action: np.ndarray | None = None) -> float:
+        return 0.0
+
+    def arm_frames(self) -> dict[str, ArmFrame]:
+        frames = {}
+        for robot, arm in zip(self.robots, self.arm_names):
+            pos = self.sim.data.get_body_xpos(robot.robot_model.root_body)
+            frames[arm] = ArmFrame(position=tuple(float(v) for v in pos), yaw=0.0)
+        return frames

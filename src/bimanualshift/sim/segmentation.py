@@ -1,0 +1,67 @@
+"""Instance and class labels for every MuJoCo geom, so rendered geom ids become segmentation maps.
+
+An instance is a body tree hanging from the world: each robot (with its mount and gripper), the table, and
+each of the task's objects. Instance 0 is the background (floor, walls, sky).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from bimanualshift.sim.task import Task
+
+ARM_CLASS = "robotic arm"
+BACKGROUND = "background"
+
+
+@dataclass
+class SceneInstances:
+    names: list[str]  # instance id -> name, e.g. "background", "arm_left", "table", "button_0"
+    classes: list[str]  # class id -> name, e.g. "background", "robotic arm", "table", "button"
+    instance_class: np.ndarray  # instance id -> class id
+    geom_instance: np.ndarray  # geom id -> instance id
+
+    @staticmethod
+    def from_model(model: mujoco.MjModel, task: Task, arm_names: tuple[str, ...]) -> SceneInstances:
+        robot_roots = {f"robot{i}_base": arm for i, arm in enumerate(arm_names)}
+        names, classes = [BACKGROUND], [BACKGROUND]
+        instance_class = [0]
+        root_instance: dict[int, int] = {}
+        for body in range(1, model.nbody):
+            if model.body_parentid[body] != 0:
+                continue
+            root = model.body(body).name
+            if root in robot_roots:
+                name, cls = f"arm_{robot_roots[root]}", ARM_CLASS
+            elif root.startswith("mount"):  # robosuite mounts are separate roots for some robots
+                name, cls = root, ARM_CLASS
+            elif root == "table":
+                name, cls = "table", "table"
+            else:
+                name, cls = root, task.instance_class(root)
+            if cls not in classes:
+                classes.append(cls)
+            root_instance[body] = len(names)
+            names.append(name)
+            instance_class.append(classes.index(cls))
+        geom_instance = np.array(
+            [root_instance.get(int(model.body_rootid[model.geom_bodyid[g]]), 0) for g in range(model.ngeom)],
+            dtype=np.int16,
+        )
+        return SceneInstances(names, classes, np.asarray(instance_class, np.int16), geom_instance)
+
+    def instance_of_geom(self, geom_ids: np.ndarray) -> np.ndarray:
+        lut = np.r_[self.geom_instance, 0]  # index -1 (no geom) maps to background
+        return lut[geom_ids]
+
+    def class_of_geom(self, geom_ids: np.ndarray) -> np.ndarray:
+        return self.instance_class[self.instance_of_geom(geom_ids)]
+
+    def ids_of_class(self, cls: str) -> list[int]:
+        if cls not in self.classes:
+            return []
+        c = self.classes.index(cls)
+        return [i for i, k in enumerate(self.instance_class) if k == c]

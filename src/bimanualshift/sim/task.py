@@ -1,0 +1,176 @@
+"""The hooks every task fills, and the task registry.
+
+A task is a small class: it adds its objects to the scene (``scene_xml``), places and colours them for a
+seeded episode (``initialize_episode``), names its goal and instruction, judges success, and scripts an
+expert as a list of keyframes. Tasks know nothing about learning; the environment (``sim.env``) runs them.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any, ClassVar, TypeVar
+
+import mujoco
+import numpy as np
+
+ARM_NAMES_BIMANUAL = ("left", "right")
+ARM_NAMES_UNIMANUAL = ("right",)
+
+# Colours used by tasks: name -> RGB. Training draws from these; perturbation studies may add unseen ones.
+COLORS: dict[str, tuple[float, float, float]] = {
+    "red": (0.85, 0.1, 0.1),
+    "green": (0.1, 0.7, 0.15),
+    "blue": (0.1, 0.25, 0.9),
+    "yellow": (0.95, 0.85, 0.1),
+    "purple": (0.55, 0.15, 0.7),
+    "orange": (0.95, 0.5, 0.05),
+    "cyan": (0.1, 0.8, 0.85),
+    "white": (0.95, 0.95, 0.95),
+}
+
+# The gripper pointing straight down as in the Panda's initial pose ((x, y, z, w) quaternion).
+DOWN_QUAT = np.array([np.sqrt(0.5), np.sqrt(0.5), 0.0, 0.0])
+
+
+@dataclass(frozen=True)
+class ArmAction:
+    """One arm's keyframe action in the world frame (the layout stored in demos and given to the env)."""
+
+    position: np.ndarray  # (3,)
+    quat: np.ndarray  # (4,) x, y, z, w
+    gripper_open: float  # 1 open, 0 closed
+    ignore_collisions: float = 1.0
+
+    def to_vector(self) -> np.ndarray:
+        return np.concatenate(
+            [self.position, self.quat, [self.gripper_open, self.ignore_collisions]]
+        ).astype(np.float32)
+
+    @staticmethod
+    def from_vector(vec: np.ndarray) -> ArmAction:
+        vec = np.asarray(vec, dtype=np.float64)
+        return ArmAction(vec[:3], vec[3:7], float(vec[7]), float(vec[8]))
+
+
+ACTION_DIM = 9  # per arm: xyz, quaternion xyzw, gripper open, ignore collisions
+Keyframe = dict[str, ArmAction]
+
+
+class SimHandle:
+    """What a task may touch: the MuJoCo model and data plus name lookups."""
+
+    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, table_height: float) -> None:
+        self.model = model
+        self.data = data
+        self.table_height = table_height
+
+    def body_id(self, name: str) -> int:
+        idx = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_BODY, name)
+        if idx < 0:
+            raise KeyError(f"no body named {name!r} in the scene")
+        return idx
+
+    def geom_id(self, name: str) -> int:
+        idx = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_GEOM, name)
+        if idx < 0:
+            raise KeyError(f"no geom named {name!r} in the scene")
+        return idx
+
+    def joint_qpos(self, name: str) -> np.ndarray:
+        j = self.model.joint(name)
+        adr = j.qposadr[0]
+        width = {0: 7, 1: 4, 2: 1, 3: 1}[int(j.type[0])]
+        return self.data.qpos[adr : adr + width]
+
+    def joint_qvel(self, name: str) -> np.ndarray:
+        j = self.model.joint(name)
+        adr = j.dofadr[0]
+        width = {0: 6, 1: 3, 2: 1, 3: 1}[int(j.type[0])]
+        return self.data.qvel[adr : adr + width]
+
+    def set_free_pose(self, joint: str, position: np.ndarray, quat_xyzw: np.ndarray | None = None) -> None:
+        q = np.array([1.0, 0, 0, 0]) if quat_xyzw is None else np.roll(np.asarray(quat_xyzw), 1)
+        self.joint_qpos(joint)[:] = np.concatenate([position, q])
+        self.joint_qvel(joint)[:] = 0.0
+
+    def set_rgb(self, geom: str, rgb: tuple[float, float, float]) -> None:
+        self.model.geom_rgba[self.geom_id(geom), :3] = rgb
+
+    def body_pos(self, name: str) -> np.ndarray:
+        return self.data.xpos[self.body_id(name)].copy()
+
+
+class Task(ABC):
+    """Base class of every task; subclasses are registered with ``@register_task``."""
+
+    name: ClassVar[str]
+    bimanual: ClassVar[bool]
+    max_keyframes: ClassVar[int] = 25
+
+    def __init__(self) -> None:
+        # JSON-able description of the current episode (colours, targets, ...): part of the env state.
+        self.episode: dict[str, Any] = {}
+
+    @property
+    def arm_names(self) -> tuple[str, ...]:
+        return ARM_NAMES_BIMANUAL if self.bimanual else ARM_NAMES_UNIMANUAL
+
+    @abstractmethod
+    def scene_xml(self) -> str:
+        """MJCF bodies (as text) added under the world body. Root body names become instance names."""
+
+    @abstractmethod
+    def initialize_episode(self, sim: SimHandle, rng: np.random.Generator) -> None:
+        """Place and colour the objects for a new episode and fill ``self.episode``."""
+
+    @abstractmethod
+    def instruction(self) -> str: ...
+
+    @abstractmethod
+    def goal_nouns(self) -> list[str]:
+        """Object categories the instruction is about (what a segmenter is prompted with)."""
+
+    @abstractmethod
+    def expert_keyframes(self, sim: SimHandle) -> list[Keyframe]:
+        """The scripted expert's keyframes for the current episode (world frame)."""
+
+    @abstractmethod
+    def evaluate_success(self, sim: SimHandle) -> bool: ...
+
+    def on_control_step(self, sim: SimHandle) -> None:  # noqa: B027 - optional hook
+        """Called after every control step; tasks latch events (a button pressed once stays pressed)."""
+
+    def instance_class(self, instance: str) -> str:
+        """Semantic class of one of this task's root bodies (e.g. ``button_1`` -> ``button``)."""
+        return instance.rsplit("_", 1)[0] if instance[-1].isdigit() else instance
+
+
+TASKS: dict[str, type[Task]] = {}
+T = TypeVar("T", bound=type[Task])
+
+
+def register_task(name: str) -> Callable[[T], T]:
+    def wrap(cls: T) -> T:
+        if name in TASKS:
+            raise ValueError(f"task {name!r} registered twice ({TASKS[name].__module__} and {cls.__module__})")
+        cls.name = name
+        TASKS[name] = cls
+        return cls
+
+    return wrap
+
+
+def make_task(name: str) -> Task:
+    from bimanualshift.sim import tasks  # noqa: F401 - importing registers every task
+
+    if name not in TASKS:
+        raise KeyError(f"unknown task {name!r}; registered tasks: {', '.join(sorted(TASKS))}")
+    return TASKS[name]()
+
+
+def task_names(bimanual: bool | None = None) -> list[str]:
+    from bimanualshift.sim import tasks  # noqa: F401
+
+    return sorted(n for n, c in TASKS.items() if bimanual is None or c.bimanual == bimanual)

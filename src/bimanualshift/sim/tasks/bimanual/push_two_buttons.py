@@ -1,0 +1,71 @@
+"""Push two buttons: three buttons of different colours; both arms press the two the instruction names."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from bimanualshift.sim.task import COLORS, DOWN_QUAT, ArmAction, Keyframe, SimHandle, Task, register_task
+from bimanualshift.sim.tasks.objects import (
+    BUTTON_PRESSED_AT,
+    button_top,
+    button_travel,
+    button_xml,
+    place_button,
+    sample_separated,
+)
+
+BUTTONS = ("button_0", "button_1", "button_2")
+# Reachable regions ((x range), (y range)): left side, right side, anywhere (the third button).
+LEFT_REGION = ((-0.10, 0.12), (0.12, 0.42))
+RIGHT_REGION = ((-0.10, 0.12), (-0.42, -0.12))
+ANY_REGION = ((-0.10, 0.12), (-0.42, 0.42))
+
+
+@register_task("push_two_buttons")
+class PushTwoButtons(Task):
+    bimanual = True
+
+    def scene_xml(self) -> str:
+        return "".join(button_xml(b) for b in BUTTONS)
+
+    def initialize_episode(self, sim: SimHandle, rng: np.random.Generator) -> None:
+        colours = [str(c) for c in rng.choice(list(COLORS), size=3, replace=False)]
+        xy = sample_separated(rng, [LEFT_REGION, RIGHT_REGION, ANY_REGION], min_distance=0.13)
+        for name, colour, p in zip(BUTTONS, colours, xy):
+            place_button(sim, name, p)
+            sim.set_rgb(f"{name}_cap", COLORS[colour])
+        # button_0 is on the left side and button_1 on the right: each arm presses the one on its side.
+        named = [0, 1] if rng.random() < 0.5 else [1, 0]  # the order the instruction names them in
+        self.episode = {
+            "colours": colours,
+            "named": named,
+            "pressed": [False, False, False],
+        }
+
+    def instruction(self) -> str:
+        c = self.episode["colours"]
+        a, b = self.episode["named"]
+        return f"push the {c[a]} and the {c[b]} buttons"
+
+    def goal_nouns(self) -> list[str]:
+        return ["button"]
+
+    def on_control_step(self, sim: SimHandle) -> None:
+        for i, name in enumerate(BUTTONS):
+            if button_travel(sim, name) >= BUTTON_PRESSED_AT:
+                self.episode["pressed"][i] = True
+
+    def evaluate_success(self, sim: SimHandle) -> bool:
+        return all(self.episode["pressed"][i] for i in self.episode["named"])
+
+    def expert_keyframes(self, sim: SimHandle) -> list[Keyframe]:
+        tops = {"left": button_top(sim, BUTTONS[0]), "right": button_top(sim, BUTTONS[1])}
+        return press_keyframes(tops)
+
+
+def press_keyframes(tops: dict[str, np.ndarray]) -> list[Keyframe]:
+    """Above the button with the gripper closed, press down past the cap's top, back up."""
+    frames: list[Keyframe] = []
+    for dz in (0.08, -0.012, 0.08):
+        frames.append({arm: ArmAction(top + [0, 0, dz], DOWN_QUAT, 0.0, 0.0) for arm, top in tops.items()})
+    return frames

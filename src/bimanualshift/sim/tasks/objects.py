@@ -1,0 +1,72 @@
+"""MJCF builders and placement helpers shared by tasks.
+
+robosuite computes inertia from geom group 0 only, while cameras render group 1: object geoms are group 1
+(visible and colliding) and every moving body states its inertia explicitly.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from bimanualshift.sim.scene import TABLE_TOP_Z
+from bimanualshift.sim.task import SimHandle
+
+BUTTON_RADIUS = 0.035
+BUTTON_TRAVEL = 0.015
+BUTTON_PRESSED_AT = 0.008  # joint travel (m) that counts as a press
+BUTTON_TOP = 0.02 + 0.024  # cap top above the table when released
+CUBE_HALF = 0.022
+
+
+def button_xml(name: str) -> str:
+    """A push button: a grey housing and a spring-loaded coloured cap on a vertical slide joint."""
+    return f"""
+<body name="{name}" pos="0 0 {TABLE_TOP_Z}">
+  <geom name="{name}_housing" type="cylinder" size="0.045 0.01" pos="0 0 0.01" rgba="0.35 0.35 0.38 1"
+        group="1" friction="1 0.005 0.0001"/>
+  <body name="{name}_cap" pos="0 0 0.02">
+    <joint name="{name}_joint" type="slide" axis="0 0 1" range="-{BUTTON_TRAVEL} 0" limited="true"
+           stiffness="40" springref="0" damping="1"/>
+    <inertial pos="0 0 0.012" mass="0.05" diaginertia="2e-5 2e-5 3e-5"/>
+    <geom name="{name}_cap" type="cylinder" size="{BUTTON_RADIUS} 0.012" pos="0 0 0.012" rgba="1 0 0 1"
+          group="1"/>
+  </body>
+</body>"""
+
+
+def cube_xml(name: str) -> str:
+    h = CUBE_HALF
+    return f"""
+<body name="{name}" pos="0 0 {TABLE_TOP_Z + h}">
+  <freejoint name="{name}_joint"/>
+  <inertial pos="0 0 0" mass="0.05" diaginertia="1.6e-5 1.6e-5 1.6e-5"/>
+  <geom name="{name}_geom" type="box" size="{h} {h} {h}" rgba="1 0 0 1" group="1"
+        friction="1.5 0.005 0.0001" solref="0.01 1"/>
+</body>"""
+
+
+def place_button(sim: SimHandle, name: str, xy: np.ndarray) -> None:
+    sim.model.body_pos[sim.body_id(name)] = (xy[0], xy[1], TABLE_TOP_Z)
+    sim.joint_qpos(f"{name}_joint")[:] = 0.0
+    sim.joint_qvel(f"{name}_joint")[:] = 0.0
+
+
+def button_travel(sim: SimHandle, name: str) -> float:
+    return float(-sim.joint_qpos(f"{name}_joint")[0])
+
+
+def button_top(sim: SimHandle, name: str) -> np.ndarray:
+    pos = sim.model.body_pos[sim.body_id(name)].copy()
+    pos[2] = TABLE_TOP_Z + BUTTON_TOP
+    return pos
+
+
+def sample_separated(rng: np.random.Generator, regions: list[tuple[tuple[float, float], tuple[float, float]]],
+                     min_distance: float, max_tries: int = 1000) -> np.ndarray:
+    """One xy point per region ((xmin, xmax), (ymin, ymax)), all at least ``min_distance`` apart."""
+    for _ in range(max_tries):
+        pts = np.array([[rng.uniform(*xr), rng.uniform(*yr)] for xr, yr in regions])
+        d = np.linalg.norm(pts[:, None] - pts[None], axis=-1) + np.eye(len(pts)) * 1e9
+        if d.min() >= min_distance:
+            return pts
+    raise RuntimeError(f"could not place {len(regions)} objects {min_distance} m apart in {regions}")

@@ -1,0 +1,54 @@
+"""Single arm: push the button of the named colour among one to three buttons."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from bimanualshift.sim.task import COLORS, SimHandle, Task, register_task
+from bimanualshift.sim.tasks.bimanual.push_two_buttons import press_keyframes
+from bimanualshift.sim.tasks.objects import (
+    BUTTON_PRESSED_AT,
+    button_top,
+    button_travel,
+    button_xml,
+    place_button,
+    sample_separated,
+)
+from bimanualshift.sim.task import Keyframe
+
+BUTTONS = ("button_0", "button_1", "button_2")
+REGION = ((-0.10, 0.15), (-0.32, 0.32))
+PARKED = np.array([1.5, 0.0])  # unused buttons are parked off the table, out of every camera's view
+
+
+@register_task("push_button")
+class PushButton(Task):
+    bimanual = False
+
+    def scene_xml(self) -> str:
+        return "".join(button_xml(b) for b in BUTTONS)
+
+    def initialize_episode(self, sim: SimHandle, rng: np.random.Generator) -> None:
+        n = int(rng.integers(1, len(BUTTONS) + 1))
+        colours = [str(c) for c in rng.choice(list(COLORS), size=len(BUTTONS), replace=False)]
+        xy = sample_separated(rng, [REGION] * n, min_distance=0.13)
+        for i, name in enumerate(BUTTONS):
+            place_button(sim, name, xy[i] if i < n else PARKED + [0.0, 0.2 * i])
+            sim.set_rgb(f"{name}_cap", COLORS[colours[i]])
+        self.episode = {"colours": colours, "count": n, "target": int(rng.integers(n)), "pressed": False}
+
+    def instruction(self) -> str:
+        return f"push the {self.episode['colours'][self.episode['target']]} button"
+
+    def goal_nouns(self) -> list[str]:
+        return ["button"]
+
+    def on_control_step(self, sim: SimHandle) -> None:
+        if button_travel(sim, BUTTONS[self.episode["target"]]) >= BUTTON_PRESSED_AT:
+            self.episode["pressed"] = True
+
+    def evaluate_success(self, sim: SimHandle) -> bool:
+        return bool(self.episode["pressed"])
+
+    def expert_keyframes(self, sim: SimHandle) -> list[Keyframe]:
+        return press_keyframes({"right": button_top(sim, BUTTONS[self.episode["target"]])})
