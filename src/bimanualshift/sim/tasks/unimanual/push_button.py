@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from bimanualshift.sim.task import COLORS, SimHandle, Task, register_task
+from bimanualshift.sim.task import COLORS, Keyframe, SimHandle, Task, register_task
 from bimanualshift.sim.tasks.bimanual.push_two_buttons import press_keyframes
 from bimanualshift.sim.tasks.objects import (
     BUTTON_PRESSED_AT,
@@ -14,7 +14,6 @@ from bimanualshift.sim.tasks.objects import (
     place_button,
     sample_separated,
 )
-from bimanualshift.sim.task import Keyframe
 
 BUTTONS = ("button_0", "button_1", "button_2")
 REGION = ((-0.10, 0.15), (-0.32, 0.32))

@@ -1,0 +1,198 @@
+"""The `bimanualshift` command line: one command, one sub-command per stage."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from dataclasses import fields
+from pathlib import Path
+
+DESCRIPTION = """BimanualShift: reuse a frozen single-arm policy for both arms of a bimanual robot.
+
+Typical flow:
+  bimanualshift collect  --task push_button --episodes 80 --out data/unimanual
+  bimanualshift pretrain --data data/unimanual --out runs/prior
+  bimanualshift collect  --task push_two_buttons --episodes 20 --out data/bimanual
+  bimanualshift train    --task push_two_buttons --prior runs/prior/best --data data/bimanual
+  bimanualshift eval     --checkpoint runs/bimanualshift/best --episodes 20
+or everything at once:   bimanualshift demo
+"""
+
+
+def _add_config_overrides(parser: argparse.ArgumentParser, config_cls: type, skip: tuple[str, ...] = ()) -> None:
+    """Expose every field of a config dataclass as --field-name, typed from its default."""
+    for f in fields(config_cls):
+        if f.name in skip:
+            continue
+        flag = "--" + f.name.replace("_", "-")
+        default = f.default if not callable(f.default_factory) else f.default_factory()  # type: ignore[misc]
+        if isinstance(default, bool):
+            parser.add_argument(flag, type=lambda s: s.lower() in ("1", "true", "yes"), default=None,
+                                metavar="true|false", help=f"(default: {default})")
+        elif isinstance(default, list):
+            parser.add_argument(flag, nargs="+", default=None, help=f"(default: {' '.join(map(str, default))})")
+        elif isinstance(default, dict):
+            parser.add_argument(flag, type=json.loads, default=None, help=f"JSON object (default: {default})")
+        else:
+            parser.add_argument(flag, type=type(default), default=None, help=f"(default: {default})")
+
+
+def _config_from_args(config_cls: type, args: argparse.Namespace):  # noqa: ANN202
+    values = {}
+    if getattr(args, "config", None):
+        path = Path(args.config)
+        if not path.is_file():
+            sys.exit(f"error: config file {path} does not exist")
+        raw = json.loads(path.read_text())
+        names = {f.name for f in fields(config_cls)}
+        unknown = sorted(set(raw) - names)
+        if unknown:
+            sys.exit(f"error: {path} has unknown keys {unknown}; known keys: {sorted(names)}")
+        values.update(raw)
+    for f in fields(config_cls):
+        v = getattr(args, f.name, None)
+        if v is not None:
+            values[f.name] = v
+    return config_cls(**values)
+
+
+def cmd_tasks(args: argparse.Namespace) -> None:
+    from bimanualshift.sim.task import TASKS, task_names
+
+    for name in task_names():
+        cls = TASKS[name]
+        print(f"{name:24s} {'bimanual' if cls.bimanual else 'single-arm':10s} {(cls.__doc__ or '').strip()}")
+
+
+def cmd_collect(args: argparse.Namespace) -> None:
+    from bimanualshift.data.collect import collect
+    from bimanualshift.data.seeds import split_seeds
+    from bimanualshift.sim.task import task_names
+
+    known = task_names()
+    tasks = known if args.task == ["all"] else args.task
+    bad = [t for t in tasks if t not in known]
+    if bad:
+        sys.exit(f"error: unknown task(s) {bad}; choose from {known} or 'all'")
+    if args.episodes < 1:
+        sys.exit("error: --episodes must be at least 1")
+    stats = collect(tasks, split_seeds(args.split, args.episodes, args.start), args.out, workers=args.workers,
+                    image_size=args.image_size)
+    for task, s in stats.items():
+        print(f"{task}: {s['succeeded']}/{s['attempted']} expert episodes succeeded and were saved "
+              f"({s['skipped']} already present) under {Path(args.out) / task}")
+
+
+def cmd_pretrain(args: argparse.Namespace) -> None:
+    from bimanualshift.training.pretrain import PretrainConfig, pretrain
+
+    best = pretrain(_config_from_args(PretrainConfig, args))
+    print(f"best prior checkpoint: {best}")
+
+
+def cmd_train(args: argparse.Namespace) -> None:
+    from bimanualshift.training.residual import TrainConfig, train_residual
+
+    best = train_residual(_config_from_args(TrainConfig, args))
+    print(f"best BimanualShift checkpoint: {best}")
+
+
+def cmd_eval(args: argparse.Namespace) -> None:
+    from bimanualshift.data.seeds import split_seeds
+    from bimanualshift.encoders.text import default_text_encoder
+    from bimanualshift.evaluation.report import print_success_table, success_rows, write_result
+    from bimanualshift.evaluation.rollout import evaluate
+    from bimanualshift.methods.bimanualshift import load_bimanualshift
+    from bimanualshift.methods.leader_follower import FrozenPriorPerArm
+    from bimanualshift.methods.stages import FrozenPriorStage
+    from bimanualshift.priors.base import UnimanualPrior
+    from bimanualshift.sim.env import ManipulationEnv
+
+    started = time.time()
+    text_encoder = default_text_encoder()
+    if args.method == "bimanualshift":
+        if not args.checkpoint:
+            sys.exit("error: --checkpoint DIR (from `bimanualshift train`) is required for --method bimanualshift")
+        policy = load_bimanualshift(args.checkpoint, text_encoder)
+    else:
+        if not args.prior:
+            sys.exit("error: --prior DIR is required for --method leader_follower")
+        policy = FrozenPriorPerArm(FrozenPriorStage(UnimanualPrior.from_pretrained(args.prior), text_encoder,
+                                                    use_projection=False))
+    seeds = split_seeds(args.split, args.episodes)
+    env = ManipulationEnv(args.task)
+    records = evaluate(env, policy, seeds, args.max_keyframes or env.task.max_keyframes)
+    env.close()
+    rows = success_rows(records)
+    print_success_table(rows, f"{args.task} ({args.split} seeds)")
+    if args.out:
+        write_result(args.out, "bimanualshift " + " ".join(sys.argv[1:]), {args.split: seeds}, started, rows)
+        print(f"wrote {args.out}")
+
+
+def cmd_demo(args: argparse.Namespace) -> None:
+    from bimanualshift.demo import DemoConfig, run_demo
+
+    run_demo(_config_from_args(DemoConfig, args))
+
+
+def build_parser() -> argparse.ArgumentParser:
+    from bimanualshift.demo import DemoConfig
+    from bimanualshift.training.pretrain import PretrainConfig
+    from bimanualshift.training.residual import TrainConfig
+
+    parser = argparse.ArgumentParser(prog="bimanualshift", description=DESCRIPTION,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    p = sub.add_parser("tasks", help="list the registered tasks")
+    p.set_defaults(func=cmd_tasks)
+
+    p = sub.add_parser("collect", help="record scripted-expert demonstrations to HDF5 (successes only)")
+    p.add_argument("--task", nargs="+", required=True, help="task name(s), or 'all'")
+    p.add_argument("--episodes", type=int, required=True, help="number of seeds to try per task")
+    p.add_argument("--out", required=True, help="output directory (one sub-folder per task)")
+    p.add_argument("--split", default="train", choices=["train", "validation", "test"],
+                   help="seed range to draw from; the three ranges never overlap (default: train)")
+    p.add_argument("--start", type=int, default=0, help="first seed offset within the split (default: 0)")
+    p.add_argument("--workers", type=int, default=1, help="parallel worker processes (default: 1)")
+    p.add_argument("--image-size", type=int, default=128, help="camera resolution (default: 128)")
+    p.set_defaults(func=cmd_collect)
+
+    p = sub.add_parser("pretrain", help="pretrain a single-arm prior on single-arm demos only")
+    p.add_argument("--config", help="JSON file with PretrainConfig fields (flags override it)")
+    _add_config_overrides(p, PretrainConfig)
+    p.set_defaults(func=cmd_pretrain)
+
+    p = sub.add_parser("train", help="train the residual branch on bimanual demos (prior frozen)")
+    p.add_argument("--config", help="JSON file with TrainConfig fields, e.g. a run's train_config.json")
+    _add_config_overrides(p, TrainConfig)
+    p.set_defaults(func=cmd_train)
+
+    p = sub.add_parser("eval", help="evaluate a method on held-out seeds")
+    p.add_argument("--method", default="bimanualshift", choices=["bimanualshift", "leader_follower"])
+    p.add_argument("--checkpoint", help="BimanualShift checkpoint directory (from `train`)")
+    p.add_argument("--prior", help="prior checkpoint directory (for leader_follower)")
+    p.add_argument("--task", default="push_two_buttons")
+    p.add_argument("--episodes", type=int, default=20)
+    p.add_argument("--split", default="test", choices=["validation", "test"])
+    p.add_argument("--max-keyframes", type=int, default=None, help="episode length limit (default: the task's)")
+    p.add_argument("--out", help="write a result JSON here")
+    p.set_defaults(func=cmd_eval)
+
+    p = sub.add_parser("demo", help="collect, (pre)train, train the residual, evaluate: the whole method")
+    p.add_argument("--config", help="JSON file with DemoConfig fields")
+    _add_config_overrides(p, DemoConfig)
+    p.set_defaults(func=cmd_demo)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> None:
+    args = build_parser().parse_args(argv)
+    args.func(args)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,80 @@
+"""Result files (the envelope of docs/results-format.md) and readable tables."""
+
+from __future__ import annotations
+
+import platform
+import subprocess
+import sys
+import time
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+from rich.console import Console
+from rich.table import Table
+
+from bimanualshift.evaluation.rollout import EpisodeRecord
+from bimanualshift.evaluation.stats import wilson_interval
+from bimanualshift.utils.io import atomic_write_json
+
+
+def git_commit() -> str:
+    try:
+        out = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True, check=True,
+                             cwd=Path(__file__).resolve().parent)
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], capture_output=True,
+                               text=True, cwd=Path(__file__).resolve().parent).stdout.strip()
+        return out.stdout.strip() + ("-dirty" if dirty else "")
+    except (OSError, subprocess.CalledProcessError):
+        return "unknown"
+
+
+def machine() -> str:
+    cpu = platform.processor() or platform.machine()
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    import os
+
+    return f"{cpu}, {os.cpu_count()} cores, torch {torch.__version__}, python {sys.version.split()[0]}"
+
+
+def success_rows(records: list[EpisodeRecord], **extra: Any) -> list[dict[str, Any]]:
+    rows = []
+    for method in dict.fromkeys(r.method for r in records):
+        for task in dict.fromkeys(r.task for r in records):
+            mine = [r for r in records if r.method == method and r.task == task]
+            if not mine:
+                continue
+            k = sum(r.success for r in mine)
+            lo, hi = wilson_interval(k, len(mine))
+            rows.append({"task": task, "method": method, **extra, "success": round(k / len(mine), 4),
+                         "episodes": len(mine), "ci95": [round(lo, 4), round(hi, 4)],
+                         "mean_keyframes": round(float(np.mean([r.keyframes for r in mine])), 2)})
+    return rows
+
+
+def write_result(path: str | Path, command: str, seeds: dict[str, list[int]], started: float,
+                 rows: list[dict[str, Any]], notes: str = "", **extra: Any) -> Path:
+    atomic_write_json(path, {
+        "command": command, "commit": git_commit(),
+        "created": datetime.now(timezone.utc).isoformat(timespec="seconds"), "machine": machine(),
+        "seeds": seeds, "wall_time_s": round(time.time() - started, 1), "rows": rows, "notes": notes, **extra,
+    })
+    return Path(path)
+
+
+def print_success_table(rows: list[dict[str, Any]], title: str) -> None:
+    table = Table(title=title)
+    for col in ("task", "method", "success", "95% CI", "episodes"):
+        table.add_column(col, justify="right" if col not in ("task", "method") else "left")
+    for r in rows:
+        table.add_row(r["task"], r["method"], f"{100 * r['success']:.1f} %",
+                      f"[{100 * r['ci95'][0]:.1f}, {100 * r['ci95'][1]:.1f}]", str(r["episodes"]))
+    Console().print(table)

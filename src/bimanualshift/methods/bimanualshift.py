@@ -1,0 +1,75 @@
+"""BimanualShift: frozen prior per arm (through the arm-conditioned projection) + residual G(v) (Eq. 4)."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import asdict
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+from safetensors.torch import load_file, save_file
+
+from bimanualshift.data.frames import KeyframeObservation
+from bimanualshift.encoders.text import TextEncoder
+from bimanualshift.geometry.frames import compose_rotation
+from bimanualshift.methods.stages import ArmStep, FrozenPriorStage, world_action
+from bimanualshift.priors.base import UnimanualPrior
+from bimanualshift.residual.manager import ResidualConfig, ResidualPolicy, manager_inputs
+from bimanualshift.residual.skills import SkillBasis
+from bimanualshift.utils.io import atomic_write_json, atomic_writer
+
+
+def base_action_vector(step: ArmStep) -> np.ndarray:
+    p = step.prior
+    return np.r_[p.position[0].numpy(), p.quat[0].numpy(), float(p.gripper_open[0])].astype(np.float32)
+
+
+class BimanualShift:
+    name = "bimanualshift"
+
+    def __init__(self, stage: FrozenPriorStage, residual: ResidualPolicy) -> None:
+        self.stage = stage
+        self.residual = residual.eval()
+
+    def reset(self) -> None:
+        pass
+
+    @torch.no_grad()
+    def act(self, obs: KeyframeObservation) -> np.ndarray:
+        steps = self.stage.run(obs)
+        text = self.stage.text(obs.instruction)
+        arms = obs.scene.arm_names
+        rows = []
+        for i, arm in enumerate(arms):
+            s = steps[arm]
+            inputs = manager_inputs(
+                s.prior.features, torch.as_tensor(s.proprio)[None], torch.as_tensor(s.other_proprio)[None], text,
+                torch.as_tensor(base_action_vector(s))[None], torch.tensor([i]), self.residual.config.num_arms,
+            )
+            out = self.residual(inputs)
+            position = s.prior.position[0].numpy() + out["translation"][0].numpy()
+            quat = compose_rotation(s.prior.quat[0].numpy(), out["rotation"][0].numpy())
+            rows.append(world_action(s.frame, position, quat, float(s.prior.gripper_open[0]),
+                                     float(s.prior.ignore_collisions[0])))
+        return np.stack(rows)
+
+
+def save_residual(directory: str | Path, residual: ResidualPolicy, extra: dict[str, Any]) -> Path:
+    directory = Path(directory)
+    directory.mkdir(parents=True, exist_ok=True)
+    with atomic_writer(directory / "model.safetensors") as tmp:
+        save_file({k: v.detach().contiguous() for k, v in residual.state_dict().items()}, str(tmp))
+    atomic_write_json(directory / "config.json", {"type": "bimanualshift", "residual": asdict(residual.config), **extra})
+    return directory
+
+
+def load_bimanualshift(directory: str | Path, text_encoder: TextEncoder) -> BimanualShift:
+    directory = Path(directory)
+    cfg = json.loads((directory / "config.json").read_text())
+    prior = UnimanualPrior.from_pretrained(cfg["prior"])
+    residual = ResidualPolicy(ResidualConfig(**cfg["residual"]), SkillBasis(cfg["residual"]["num_skills"], text_encoder.dim))
+    residual.load_state_dict(load_file(str(directory / "model.safetensors")))
+    stage = FrozenPriorStage(prior, text_encoder, use_projection=cfg.get("use_projection", True))
+    return BimanualShift(stage, residual)

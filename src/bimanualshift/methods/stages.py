@@ -1,0 +1,67 @@
+"""The stage every method shares: per-arm observations through the frozen prior."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+
+from bimanualshift.data.frames import KeyframeObservation
+from bimanualshift.encoders.text import TextEncoder
+from bimanualshift.geometry.frames import ArmFrame
+from bimanualshift.geometry.voxels import VoxelGrid
+from bimanualshift.perception.observation import ArmObservationBuilder, arm_frames
+from bimanualshift.perception.projection import ArmProjection
+from bimanualshift.perception.segmenters.simulator import SimulatorSegmenter
+from bimanualshift.priors.base import PriorOutput, UnimanualPrior
+from bimanualshift.sim.env import WORKSPACE_HIGH, WORKSPACE_LOW
+
+
+@dataclass
+class ArmStep:
+    """Everything a method needs about one arm at one keyframe."""
+
+    frame: ArmFrame
+    proprio: np.ndarray  # (9,) arm frame + keyframe fraction
+    other_proprio: np.ndarray  # (8,) the other arm, in this arm's frame
+    prior: PriorOutput  # batch of one, arm frame
+
+
+class FrozenPriorStage:
+    def __init__(self, prior: UnimanualPrior, text_encoder: TextEncoder, use_projection: bool = True,
+                 max_keyframes: int = 25) -> None:
+        self.prior = prior.freeze()
+        self.text_encoder = text_encoder
+        cfg = prior.config
+        projection = ArmProjection(SimulatorSegmenter()) if use_projection else None
+        self.builder = ArmObservationBuilder(VoxelGrid(tuple(cfg.bounds), cfg.voxel_size), projection)
+        self.max_keyframes = max_keyframes
+
+    def text(self, instruction: str) -> torch.Tensor:
+        return torch.as_tensor(self.text_encoder.encode([instruction]))
+
+    def run(self, obs: KeyframeObservation) -> dict[str, ArmStep]:
+        per_arm = self.builder.build(obs)
+        frames = arm_frames(obs)
+        text = self.text(obs.instruction)
+        steps = {}
+        arms = obs.scene.arm_names
+        for i, arm in enumerate(arms):
+            proprio = np.r_[per_arm[arm].proprio, obs.keyframe_index / self.max_keyframes].astype(np.float32)
+            other = np.zeros(8, np.float32)
+            if len(arms) > 1:
+                o = obs.proprio[1 - i]
+                opos, oquat = frames[arm].pose_to_arm(o[:3], o[3:7])
+                other = np.r_[opos, oquat, o[7]].astype(np.float32)
+            out = self.prior.predict(torch.as_tensor(per_arm[arm].voxels)[None], torch.as_tensor(proprio)[None], text)
+            steps[arm] = ArmStep(frames[arm], proprio, other, out)
+        return steps
+
+
+def world_action(frame: ArmFrame, position: np.ndarray, quat: np.ndarray, gripper_open: float,
+                 ignore_collisions: float) -> np.ndarray:
+    """An arm-frame action as the env's world-frame row, clamped into the reachable workspace."""
+    pos, q = frame.pose_to_world(position, quat)
+    pos = np.clip(pos, WORKSPACE_LOW + 1e-3, WORKSPACE_HIGH - 1e-3)
+    return np.r_[pos, q, float(gripper_open > 0.5), float(ignore_collisions > 0.5)].astype(np.float32)

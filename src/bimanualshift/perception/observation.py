@@ -1,0 +1,59 @@
+"""From a multi-camera keyframe to one arm's observation: voxels and proprioception in its base frame."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from bimanualshift.data.frames import KeyframeObservation
+from bimanualshift.geometry.cameras import depth_to_world_points
+from bimanualshift.geometry.frames import ArmFrame
+from bimanualshift.geometry.voxels import VoxelGrid
+from bimanualshift.perception.projection import ArmProjection
+
+# Arm-frame workspace: 0.2-0.9 m ahead of the base, +-0.45 m to the side, from below the table top
+# (the base sits 0.11 m below it) to 0.5 m above the base.
+DEFAULT_ARM_BOUNDS = (0.2, -0.45, -0.15, 0.9, 0.45, 0.5)
+
+
+@dataclass
+class ArmObservation:
+    voxels: np.ndarray  # (4, S, S, S) float32 occupancy + rgb, arm frame
+    proprio: np.ndarray  # (8,) position, quaternion, gripper open in the arm frame
+
+
+def world_point_cloud(obs: KeyframeObservation) -> tuple[np.ndarray, np.ndarray]:
+    """All cameras' pixels as world points (C, H, W, 3) and colours in [0, 1] (C, H, W, 3)."""
+    points = np.stack([depth_to_world_points(obs.depth[c], obs.intrinsics[c], obs.extrinsics[c])
+                       for c in range(len(obs.depth))])
+    return points, obs.rgb.astype(np.float32) / 255.0
+
+
+def arm_frames(obs: KeyframeObservation) -> dict[str, ArmFrame]:
+    return {arm: ArmFrame(tuple(obs.scene.arm_bases[arm])) for arm in obs.scene.arm_names}
+
+
+def proprio_in_arm_frame(proprio_world: np.ndarray, frame: ArmFrame) -> np.ndarray:
+    pos, quat = frame.pose_to_arm(proprio_world[:3], proprio_world[3:7])
+    return np.r_[pos, quat, proprio_world[7]].astype(np.float32)
+
+
+class ArmObservationBuilder:
+    """Builds each arm's voxel observation, through the arm-conditioned projection when one is given."""
+
+    def __init__(self, grid: VoxelGrid, projection: ArmProjection | None = None) -> None:
+        self.grid = grid
+        self.projection = projection
+
+    def build(self, obs: KeyframeObservation) -> dict[str, ArmObservation]:
+        points, colors = world_point_cloud(obs)
+        valid = obs.depth > 0
+        masks = self.projection.masks_2d(obs) if self.projection else None
+        out = {}
+        for i, (arm, frame) in enumerate(arm_frames(obs).items()):
+            keep = valid & masks[arm] if masks is not None else valid
+            pts = frame.points_to_arm(points[keep])
+            out[arm] = ArmObservation(self.grid.voxelize(pts, colors[keep]),
+                                      proprio_in_arm_frame(obs.proprio[i], frame))
+        return out

@@ -1,0 +1,114 @@
+"""The frozen unimanual prior interface and its registry.
+
+A prior maps one arm's observation in its own base frame (voxels, proprioception, instruction embedding)
+to that arm's next keyframe action, and exposes the visual features the residual Manager consumes.
+Checkpoints are ``model.safetensors`` + ``config.json``; the config's ``type`` picks the class.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, fields
+from pathlib import Path
+from typing import Any, ClassVar, TypeVar
+
+import torch
+from safetensors.torch import load_file, save_file
+from torch import nn
+
+from bimanualshift.utils.io import atomic_write_text, atomic_writer
+
+
+@dataclass
+class PriorOutput:
+    position: torch.Tensor  # (B, 3) arm-frame target position
+    quat: torch.Tensor  # (B, 4) arm-frame target orientation, x y z w
+    gripper_open: torch.Tensor  # (B,) probability
+    ignore_collisions: torch.Tensor  # (B,) probability
+    features: torch.Tensor  # (B, F) visual features for the residual Manager
+
+
+@dataclass
+class PriorConfig:
+    type: ClassVar[str] = "base"
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"type": self.type, **asdict(self)}
+
+
+class UnimanualPrior(nn.Module):
+    config_class: ClassVar[type[PriorConfig]]
+
+    def __init__(self, config: PriorConfig) -> None:
+        super().__init__()
+        self.config = config
+
+    @property
+    def feature_dim(self) -> int:
+        raise NotImplementedError
+
+    def predict(self, voxels: torch.Tensor, proprio: torch.Tensor, text: torch.Tensor) -> PriorOutput:
+        raise NotImplementedError
+
+    def freeze(self) -> UnimanualPrior:
+        """Frozen priors never learn and never leave eval mode (no dropout or batch-norm updates)."""
+        self.eval()
+        for p in self.parameters():
+            p.requires_grad_(False)
+        return self
+
+    def train(self, mode: bool = True) -> UnimanualPrior:
+        if mode and any(not p.requires_grad for p in self.parameters()):
+            mode = False  # a frozen prior stays in eval mode even inside a module put in training mode
+        return super().train(mode)
+
+    def save_pretrained(self, directory: str | Path, extra: dict[str, Any] | None = None) -> Path:
+        directory = Path(directory)
+        directory.mkdir(parents=True, exist_ok=True)
+        tensors = {k: v.detach().contiguous() for k, v in self.state_dict().items()}
+        with atomic_writer(directory / "model.safetensors") as tmp:
+            save_file(tensors, str(tmp))
+        atomic_write_text(directory / "config.json", json.dumps({**self.config.to_dict(), **(extra or {})}, indent=2))
+        return directory
+
+    @staticmethod
+    def from_pretrained(directory: str | Path) -> UnimanualPrior:
+        directory = Path(directory)
+        cfg_path, weights = directory / "config.json", directory / "model.safetensors"
+        for p in (cfg_path, weights):
+            if not p.is_file():
+                raise FileNotFoundError(f"prior checkpoint {directory} has no {p.name}; expected config.json and "
+                                        "model.safetensors (train one with `bimanualshift pretrain`)")
+        raw = json.loads(cfg_path.read_text())
+        kind = raw.get("type")
+        if kind not in PRIORS:
+            raise ValueError(f"{cfg_path}: unknown prior type {kind!r}; known: {sorted(PRIORS)}")
+        cls = PRIORS[kind]
+        names = {f.name for f in fields(cls.config_class)}
+        config = cls.config_class(**{k: (tuple(v) if isinstance(v, list) else v) for k, v in raw.items() if k in names})
+        model = cls(config)
+        state = load_file(str(weights))
+        expected = model.state_dict()
+        problems = [f"{k}: checkpoint {tuple(state[k].shape)} vs model {tuple(v.shape)}"
+                    for k, v in expected.items() if k in state and state[k].shape != v.shape]
+        missing = [k for k in expected if k not in state]
+        unexpected = [k for k in state if k not in expected]
+        if problems or missing or unexpected:
+            raise ValueError(f"{weights} does not match its config.json: shape mismatches {problems}, "
+                             f"missing {missing[:5]}, unexpected {unexpected[:5]}")
+        model.load_state_dict(state)
+        return model
+
+
+PRIORS: dict[str, type[UnimanualPrior]] = {}
+P = TypeVar("P", bound=type[UnimanualPrior])
+
+
+def register_prior(name: str) -> Callable[[P], P]:
+    def wrap(cls: P) -> P:
+        PRIORS[name] = cls
+        cls.config_class.type = name
+        return cls
+
+    return wrap

@@ -1,0 +1,144 @@
+"""A small PerAct-style policy: voxels -> 3-D conv patches -> Perceiver latents (with language and
+proprioception tokens) -> translation heat-map over voxels, discrete Euler rotation bins, gripper and
+collision heads."""
+
+from __future__ import annotations
+
+import numpy as np
+import torch
+import torch.nn.functional as F
+from torch import nn
+
+from bimanualshift.geometry.frames import euler_bins_to_quat
+from bimanualshift.geometry.voxels import VOXEL_CHANNELS, VoxelGrid
+from bimanualshift.priors.base import PriorOutput, UnimanualPrior, register_prior
+from bimanualshift.priors.peract.configuration_peract import PerActConfig
+
+STEM = 8  # channels of the full-resolution voxel stem
+NUM_PEAKS = 4
+
+
+class CrossAttention(nn.Module):
+    def __init__(self, dim: int, heads: int) -> None:
+        super().__init__()
+        self.norm_q, self.norm_kv = nn.LayerNorm(dim), nn.LayerNorm(dim)
+        self.attn = nn.MultiheadAttention(dim, heads, batch_first=True)
+        self.ff = nn.Sequential(nn.LayerNorm(dim), nn.Linear(dim, 2 * dim), nn.GELU(), nn.Linear(2 * dim, dim))
+
+    def forward(self, query: torch.Tensor, context: torch.Tensor) -> torch.Tensor:
+        kv = self.norm_kv(context)
+        x = query + self.attn(self.norm_q(query), kv, kv, need_weights=False)[0]
+        return x + self.ff(x)
+
+
+@register_prior("peract")
+class PerActPrior(UnimanualPrior):
+    config_class = PerActConfig
+
+    def __init__(self, config: PerActConfig) -> None:
+        super().__init__(config)
+        c = config
+        if c.voxel_size % c.patch_size:
+            raise ValueError(f"voxel_size {c.voxel_size} must be a multiple of patch_size {c.patch_size}")
+        self.grid = VoxelGrid(tuple(c.bounds), c.voxel_size)
+        in_ch = VOXEL_CHANNELS + 3  # + normalised voxel coordinates
+        self.patches = c.voxel_size // c.patch_size
+        self.voxel_stem = nn.Sequential(nn.Conv3d(in_ch, STEM, 3, padding=1), nn.GELU())
+        self.patch_embed = nn.Conv3d(STEM, c.dim, c.patch_size, stride=c.patch_size)
+        self.pos_embed = nn.Parameter(torch.randn(1, self.patches**3, c.dim) * 0.02)
+        self.text_proj = nn.Linear(c.text_dim, c.dim)
+        self.proprio_proj = nn.Linear(c.proprio_dim + 1, c.dim)
+        self.latents = nn.Parameter(torch.randn(1, c.num_latents, c.dim) * 0.02)
+        self.encode = CrossAttention(c.dim, c.heads)
+        self.process = nn.ModuleList(CrossAttention(c.dim, c.heads) for _ in range(c.self_attention_layers))
+        self.decode = CrossAttention(c.dim, c.heads)
+        # Each decoded patch token predicts the logits of its patch_size^3 voxels (a 3-D pixel shuffle),
+        # refined by a 1x1x1 read-out of the full-resolution stem: far cheaper than convolving at S^3.
+        self.translation_patch = nn.Linear(c.dim, c.patch_size**3)
+        self.translation_stem = nn.Conv3d(STEM, 1, 1)
+        self.global_head = nn.Sequential(
+            nn.Linear(2 * c.dim + STEM, 256), nn.GELU(), nn.Linear(256, 3 * c.rotation_bins + 4)
+        )
+        coords = torch.stack(torch.meshgrid(*[torch.linspace(-1, 1, c.voxel_size)] * 3, indexing="ij"))
+        self.register_buffer("coords", coords[None], persistent=False)
+
+    @property
+    def feature_dim(self) -> int:
+        return 2 * self.config.dim + 4 * NUM_PEAKS
+
+    def heatmap_peaks(self, heatmap: torch.Tensor) -> torch.Tensor:
+        """Top heat-map peaks after 3x3x3 non-maximum suppression: (B, NUM_PEAKS, 4) = arm-frame xyz
+        and probability. Where the prior looks is the visual feature a residual can re-target from."""
+        s = self.config.voxel_size
+        prob = heatmap.softmax(-1).reshape(-1, 1, s, s, s)
+        pooled = F.max_pool3d(prob, 3, stride=1, padding=1)
+        suppressed = torch.where(prob >= pooled, prob, torch.zeros_like(prob)).flatten(1)
+        values, flat = suppressed.topk(NUM_PEAKS, dim=-1)
+        idx = torch.stack([flat // (s * s), (flat // s) % s, flat % s], dim=-1).float()
+        lower = torch.as_tensor(self.grid.lower)
+        xyz = lower + (idx + 0.5) * torch.as_tensor(self.grid.voxel_size)
+        return torch.cat([xyz, values[..., None]], dim=-1)
+
+    def forward(self, voxels: torch.Tensor, proprio: torch.Tensor, text: torch.Tensor
+                ) -> dict[str, torch.Tensor]:
+        """voxels (B, 4, S, S, S), proprio (B, proprio_dim + 1) with the keyframe fraction last, text (B, T)."""
+        c = self.config
+        b = voxels.shape[0]
+        x = torch.cat([voxels, self.coords.expand(b, -1, -1, -1, -1)], dim=1)
+        stem = self.voxel_stem(x)  # (B, 16, S, S, S)
+        tokens = self.patch_embed(stem).flatten(2).transpose(1, 2) + self.pos_embed  # (B, P^3, D)
+        context = torch.cat([tokens, self.text_proj(text)[:, None], self.proprio_proj(proprio)[:, None]], dim=1)
+        latents = self.encode(self.latents.expand(b, -1, -1), context)
+        for layer in self.process:
+            latents = layer(latents, torch.cat([latents, context[:, -2:]], dim=1))
+        decoded = self.decode(tokens, latents)  # (B, P^3, D)
+        p, q = self.patches, c.patch_size
+        patch_logits = self.translation_patch(decoded).reshape(b, p, p, p, q, q, q)
+        patch_logits = patch_logits.permute(0, 1, 4, 2, 5, 3, 6).reshape(b, 1, p * q, p * q, p * q)
+        heatmap = (patch_logits + self.translation_stem(stem)).flatten(1)  # (B, S^3)
+        # Global features: pooled latents, the decoded token and stem features where the heat-map points.
+        attention = heatmap.softmax(-1)
+        token_attention = attention.reshape(b, p, q, p, q, p, q).sum((2, 4, 6)).flatten(1)  # (B, P^3)
+        at_token = torch.einsum("bn,bnc->bc", token_attention, decoded)
+        at_stem = torch.einsum("bn,bcn->bc", attention, stem.flatten(2))
+        features = torch.cat([latents.mean(1), at_token], dim=-1)
+        logits = self.global_head(torch.cat([features, at_stem], dim=-1))
+        features = torch.cat([features, self.heatmap_peaks(heatmap.detach()).flatten(1)], dim=-1)
+        r = c.rotation_bins
+        return {
+            "translation": heatmap,
+            "rotation": logits[:, : 3 * r].reshape(b, 3, r),
+            "gripper": logits[:, 3 * r : 3 * r + 2],
+            "collision": logits[:, 3 * r + 2 :],
+            "features": features,
+        }
+
+    def decode_actions(self, out: dict[str, torch.Tensor]) -> PriorOutput:
+        c = self.config
+        s = c.voxel_size
+        flat = out["translation"].argmax(-1).cpu().numpy()
+        index = np.stack(np.unravel_index(flat, (s, s, s)), axis=-1)
+        position = torch.as_tensor(self.grid.index_to_point(index), dtype=torch.float32)
+        bins = out["rotation"].argmax(-1).cpu().numpy()
+        quat = torch.as_tensor(np.stack([euler_bins_to_quat(b, c.rotation_bin_degrees) for b in bins]),
+                               dtype=torch.float32)
+        return PriorOutput(
+            position=position, quat=quat,
+            gripper_open=out["gripper"].softmax(-1)[:, 1], ignore_collisions=out["collision"].softmax(-1)[:, 1],
+            features=out["features"],
+        )
+
+    @torch.no_grad()
+    def predict(self, voxels: torch.Tensor, proprio: torch.Tensor, text: torch.Tensor) -> PriorOutput:
+        return self.decode_actions(self.forward(voxels, proprio, text))
+
+    def loss(self, out: dict[str, torch.Tensor], target: dict[str, torch.Tensor]) -> dict[str, torch.Tensor]:
+        """Cross-entropy over voxels, rotation bins, gripper and collision (PerAct's objective)."""
+        losses = {
+            "translation": F.cross_entropy(out["translation"], target["translation_index"]),
+            "rotation": F.cross_entropy(out["rotation"].flatten(0, 1), target["rotation_bins"].flatten()),
+            "gripper": F.cross_entropy(out["gripper"], target["gripper_open"]),
+            "collision": F.cross_entropy(out["collision"], target["ignore_collisions"]),
+        }
+        losses["total"] = sum(losses.values())
+        return losses

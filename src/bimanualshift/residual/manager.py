@@ -1,0 +1,67 @@
+"""The Manager network (Eq. 6), the projection G and the residual action (Eq. 4, 7)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import torch
+from torch import nn
+
+from bimanualshift.residual.skills import SkillBasis
+
+
+@dataclass
+class ResidualConfig:
+    num_skills: int = 16
+    hidden: int = 256
+    feature_dim: int = 208  # the prior's visual feature width
+    proprio_dim: int = 9  # own arm (8) + keyframe fraction
+    other_proprio_dim: int = 8
+    text_dim: int = 384
+    base_action_dim: int = 8  # the prior's own action (arm frame): xyz, quaternion, gripper
+    num_arms: int = 2
+    structured: bool = True  # False: an MLP residual with no skill basis (ablation)
+
+
+class Manager(nn.Module):
+    """(omega, h) = Manager(features, both arms' proprio, instruction) with softmax-normalised omega."""
+
+    def __init__(self, config: ResidualConfig, skill_dim: int) -> None:
+        super().__init__()
+        c = config
+        in_dim = c.feature_dim + c.proprio_dim + c.other_proprio_dim + c.text_dim + c.base_action_dim + c.num_arms
+        self.trunk = nn.Sequential(nn.Linear(in_dim, c.hidden), nn.GELU(), nn.Linear(c.hidden, c.hidden), nn.GELU())
+        self.weights = nn.Linear(c.hidden, c.num_skills)
+        self.compensation = nn.Linear(c.hidden, skill_dim)
+
+    def forward(self, inputs: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        x = self.trunk(inputs)
+        return self.weights(x).softmax(-1), self.compensation(x)
+
+
+class ResidualPolicy(nn.Module):
+    """The only learned part: Manager, skill basis Z and G. G maps v to a translation (3) and an
+    axis-angle rotation (3) residual; the rotation is composed with the prior's on SO(3)."""
+
+    def __init__(self, config: ResidualConfig, basis: SkillBasis) -> None:
+        super().__init__()
+        self.config = config
+        self.basis = basis
+        skill_dim = basis.z.shape[1]
+        self.manager = Manager(config, skill_dim)
+        self.g = nn.Linear(skill_dim, 6)
+        nn.init.zeros_(self.g.weight)  # start as the identity: the prior's action unchanged
+        nn.init.zeros_(self.g.bias)
+
+    def forward(self, inputs: torch.Tensor) -> dict[str, torch.Tensor]:
+        weights, compensation = self.manager(inputs)
+        v = self.basis.combine(weights, compensation) if self.config.structured else compensation
+        residual = self.g(v)
+        return {"translation": residual[:, :3], "rotation": residual[:, 3:], "weights": weights, "v": v}
+
+
+def manager_inputs(features: torch.Tensor, proprio: torch.Tensor, other_proprio: torch.Tensor,
+                   text: torch.Tensor, base_action: torch.Tensor, arm_index: torch.Tensor, num_arms: int
+                   ) -> torch.Tensor:
+    return torch.cat([features, proprio, other_proprio, text, base_action,
+                      nn.functional.one_hot(arm_index, num_arms).float()], dim=-1)

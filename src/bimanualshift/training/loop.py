@@ -1,0 +1,62 @@
+"""A small, resumable training loop shared by prior pretraining and residual training.
+
+Every ``checkpoint_every`` steps the model, optimiser and RNG state are saved atomically; starting again
+with the same run directory resumes from the newest checkpoint. Batches are drawn from a generator
+seeded by (seed, step), so a resumed run sees exactly the batches an uninterrupted run would have seen.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import torch
+from torch import nn
+from tqdm import tqdm
+
+from bimanualshift.training.checkpoint import latest_checkpoint, load_checkpoint, save_checkpoint
+from bimanualshift.utils.io import atomic_write_json
+
+StepFn = Callable[[int, torch.Generator], dict[str, torch.Tensor]]
+ValidateFn = Callable[[int], float]  # lower is better
+
+
+def step_generator(seed: int, step: int) -> torch.Generator:
+    return torch.Generator().manual_seed(seed * 1_000_003 + step)
+
+
+def run_training(run_dir: str | Path, model: nn.Module, optimizer: torch.optim.Optimizer, steps: int,
+                 step_fn: StepFn, seed: int, checkpoint_every: int = 100,
+                 validate_fn: ValidateFn | None = None, on_best: Callable[[int, float], None] | None = None,
+                 desc: str = "train") -> dict[str, Any]:
+    run_dir = Path(run_dir)
+    start, history, best = 0, [], {"step": None, "value": float("inf")}
+    ckpt = latest_checkpoint(run_dir)
+    if ckpt is not None:
+        state = load_checkpoint(ckpt, model, optimizer)
+        start, history, best = state["step"], state.get("history", []), state.get("best", best)
+    bar = tqdm(range(start, steps), initial=start, total=steps, desc=desc, unit="step")
+    for step in bar:
+        model.train()
+        losses = step_fn(step, step_generator(seed, step))
+        optimizer.zero_grad(set_to_none=True)
+        losses["total"].backward()
+        optimizer.step()
+        logged = {k: round(float(v), 5) for k, v in losses.items()}
+        bar.set_postfix(loss=logged["total"])
+        done = step + 1
+        if done % checkpoint_every == 0 or done == steps:
+            record: dict[str, Any] = {"step": done, **logged}
+            if validate_fn is not None:
+                model.eval()
+                value = float(validate_fn(done))
+                record["validation"] = value
+                if value < best["value"]:
+                    best = {"step": done, "value": value}
+                    if on_best is not None:
+                        on_best(done, value)
+            history.append(record)
+            save_checkpoint(run_dir, done, model, optimizer, {"history": history, "best": best})
+            atomic_write_json(run_dir / "history.json", {"history": history, "best": best})
+    return {"history": history, "best": best}

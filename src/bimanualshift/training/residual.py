@@ -1,0 +1,124 @@
+"""Training the residual branch on bimanual demos while the prior and the projection stay frozen
+(`bimanualshift train`, Eq. 12-13 without the correction term, which needs refinement rollouts).
+
+The frozen prior's outputs do not change during training, so they are computed once per keyframe and
+arm and cached: each step then costs only the Manager, Z and G.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from bimanualshift.data.episode import list_episodes
+from bimanualshift.encoders.text import TextEncoder, default_text_encoder
+from bimanualshift.geometry.frames import rotation_difference
+from bimanualshift.methods.bimanualshift import save_residual
+from bimanualshift.methods.stages import FrozenPriorStage
+from bimanualshift.priors.base import UnimanualPrior
+from bimanualshift.residual.manager import ResidualConfig, ResidualPolicy, manager_inputs
+from bimanualshift.residual.skills import SkillBasis
+from bimanualshift.training.loop import run_training
+from bimanualshift.training.optim import make_lamb
+from bimanualshift.training.samples import build_arm_samples
+from bimanualshift.utils.io import atomic_write_json
+
+
+@dataclass
+class TrainConfig:
+    task: str = "push_two_buttons"
+    prior: str = "checkpoints/peract_unimanual"
+    data: str = "data/bimanual"
+    validation_data: str = "data/bimanual_val"
+    out: str = "runs/bimanualshift"
+    demos: int = 20
+    steps: int = 1500
+    batch_size: int = 4
+    lr: float = 5e-4
+    beta: float = 1.0  # weight of the rotation term in L_BC (Eq. 12)
+    checkpoint_every: int = 250
+    use_projection: bool = True
+    structured: bool = True
+    seed: int = 0
+
+
+@dataclass
+class ResidualData:
+    inputs: torch.Tensor  # (N, manager input width)
+    translation: torch.Tensor  # (N, 3) target residual: expert - prior, arm frame
+    rotation: torch.Tensor  # (N, 3) axis-angle r with exp(r) * R_prior = R_expert
+
+
+def residual_data(paths: list[Path], stage: FrozenPriorStage, text_encoder: TextEncoder, desc: str) -> ResidualData:
+    samples = build_arm_samples(paths, stage.builder, stage.max_keyframes, desc=desc)
+    arm_names = sorted(set(samples.arm))
+    arm_index = torch.as_tensor([["left", "right"].index(a) if a in ("left", "right") else 0 for a in samples.arm])
+    text = torch.as_tensor(text_encoder.encode(samples.instructions))
+    features, base = [], []
+    with torch.no_grad():
+        for start in range(0, len(samples), 32):
+            sl = slice(start, start + 32)
+            out = stage.prior.predict(torch.as_tensor(samples.voxels[sl]).float(),
+                                      torch.as_tensor(samples.proprio[sl]), text[sl])
+            features.append(out.features)
+            base.append(torch.cat([out.position, out.quat, out.gripper_open[:, None]], dim=-1))
+    features_t, base_t = torch.cat(features), torch.cat(base)
+    inputs = manager_inputs(features_t, torch.as_tensor(samples.proprio), torch.as_tensor(samples.other_proprio),
+                            text, base_t, arm_index, max(2, len(arm_names)))
+    translation = torch.as_tensor(samples.action_pos) - base_t[:, :3]
+    rotation = torch.as_tensor(np.stack([rotation_difference(t, b) for t, b in
+                                         zip(samples.action_quat, base_t[:, 3:7].numpy())]), dtype=torch.float32)
+    return ResidualData(inputs, translation, rotation)
+
+
+def bc_loss(out: dict[str, torch.Tensor], translation: torch.Tensor, rotation: torch.Tensor, beta: float
+            ) -> dict[str, torch.Tensor]:
+    """Eq. 12 on the final action: a = prior + G(v), so the error of a equals the residual's error."""
+    trans = ((out["translation"] - translation) ** 2).sum(-1).mean()
+    rot = ((out["rotation"] - rotation) ** 2).sum(-1).mean()
+    return {"translation": trans, "rotation": rot, "total": trans + beta * rot}
+
+
+def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Path:
+    started = time.time()
+    out = Path(cfg.out)
+    out.mkdir(parents=True, exist_ok=True)
+    atomic_write_json(out / "train_config.json", asdict(cfg))
+    torch.manual_seed(cfg.seed)
+    text_encoder = default_text_encoder()
+    prior = prior if prior is not None else UnimanualPrior.from_pretrained(cfg.prior)
+    stage = FrozenPriorStage(prior, text_encoder, use_projection=cfg.use_projection)
+    paths = list_episodes(cfg.data, cfg.task)[: cfg.demos]
+    if not paths:
+        raise FileNotFoundError(f"no bimanual demos for {cfg.task} under {cfg.data}; run "
+                                f"`bimanualshift collect --task {cfg.task} --out {cfg.data}` first")
+    train = residual_data(paths, stage, text_encoder, "prior outputs (train)")
+    val_paths = list_episodes(cfg.validation_data, cfg.task)
+    val = residual_data(val_paths, stage, text_encoder, "prior outputs (val)") if val_paths else train
+    rcfg = ResidualConfig(feature_dim=prior.feature_dim, text_dim=text_encoder.dim, structured=cfg.structured)
+    residual = ResidualPolicy(rcfg, SkillBasis.from_verbs(text_encoder))
+    optimizer = make_lamb(residual.parameters(), lr=cfg.lr)
+    checkpoint_meta = {"prior": cfg.prior,
+                       "use_projection": cfg.use_projection, "task": cfg.task, "demos": len(paths),
+                       "text_encoder": getattr(text_encoder, "name", "custom")}
+
+    def step_fn(step: int, gen: torch.Generator) -> dict[str, torch.Tensor]:
+        index = torch.randint(len(train.inputs), (cfg.batch_size,), generator=gen)
+        return bc_loss(residual(train.inputs[index]), train.translation[index], train.rotation[index], cfg.beta)
+
+    def validate(step: int) -> float:
+        with torch.no_grad():
+            return float(bc_loss(residual(val.inputs), val.translation, val.rotation, cfg.beta)["total"])
+
+    def on_best(step: int, value: float) -> None:
+        save_residual(out / "best", residual, {**checkpoint_meta, "trained_steps": step, "validation_loss": value})
+
+    result = run_training(out, residual, optimizer, cfg.steps, step_fn, cfg.seed, cfg.checkpoint_every,
+                          validate, on_best, desc="train residual")
+    atomic_write_json(out / "summary.json", {**result, "wall_time_s": round(time.time() - started, 1),
+                                             "train_samples": len(train.inputs)})
+    return out / "best"
