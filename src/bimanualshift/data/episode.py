@@ -117,7 +117,9 @@ def read_episode(path: str | Path) -> Episode:
             missing = [k for k in (*SCALAR_ATTRS, *JSON_ATTRS) if k not in attrs]
             missing += [k for k in ARRAYS if k not in f]
             if missing:
-                raise EpisodeFormatError(f"{path}: missing fields {missing}; the file is incomplete or from another tool")
+                raise EpisodeFormatError(
+                    f"{path}: missing fields {missing}; the file is incomplete or from another tool"
+                )
             arrays = {k: f[k][()] for k in ARRAYS}
     except EpisodeFormatError:
         raise

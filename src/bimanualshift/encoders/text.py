@@ -35,7 +35,7 @@ class SentenceTransformerEncoder:
             raise RuntimeError(f"cannot load text encoder {model!r}: {exc}. Give a local sentence-transformers "
                                "model directory, or omit it to use the bundled all-MiniLM-L6-v2") from exc
         self.name = model
-        self.dim = int(self.model.get_sentence_embedding_dimension())
+        self.dim = int(self.model.get_embedding_dimension())
         self._cache: dict[str, np.ndarray] = {}
 
     def encode(self, texts: list[str]) -> np.ndarray:

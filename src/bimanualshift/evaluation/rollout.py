@@ -37,15 +37,16 @@ def rollout(env: ManipulationEnv, policy: Policy, seed: int, max_keyframes: int,
     scene = scene_of_env(env)
     policy.reset()
     frames = [obs["cameras"][record_camera]["rgb"]] if record_camera else []
-    success, k = False, 0
-    for k in range(1, max_keyframes + 1):
+    success = False
+    for _ in range(max_keyframes):
         action = policy.act(KeyframeObservation.from_env(obs, scene))
         obs, _, success, truncated, _ = env.step(action)
         if record_camera:
             frames.append(obs["cameras"][record_camera]["rgb"])
         if success or truncated:
             break
-    return EpisodeRecord(policy.name, env.task.name, seed, bool(success), k, env.task.instruction(), frames)
+    return EpisodeRecord(policy.name, env.task.name, seed, bool(success), env.keyframe_index,
+                         env.task.instruction(), frames)
 
 
 def evaluate(env: ManipulationEnv, policy: Policy, seeds: list[int], max_keyframes: int,

@@ -61,7 +61,8 @@ def save_residual(directory: str | Path, residual: ResidualPolicy, extra: dict[s
     directory.mkdir(parents=True, exist_ok=True)
     with atomic_writer(directory / "model.safetensors") as tmp:
         save_file({k: v.detach().contiguous() for k, v in residual.state_dict().items()}, str(tmp))
-    atomic_write_json(directory / "config.json", {"type": "bimanualshift", "residual": asdict(residual.config), **extra})
+    config = {"type": "bimanualshift", "residual": asdict(residual.config), **extra}
+    atomic_write_json(directory / "config.json", config)
     return directory
 
 
@@ -69,7 +70,8 @@ def load_bimanualshift(directory: str | Path, text_encoder: TextEncoder) -> Bima
     directory = Path(directory)
     cfg = json.loads((directory / "config.json").read_text())
     prior = UnimanualPrior.from_pretrained(cfg["prior"])
-    residual = ResidualPolicy(ResidualConfig(**cfg["residual"]), SkillBasis(cfg["residual"]["num_skills"], text_encoder.dim))
+    rcfg = ResidualConfig(**cfg["residual"])
+    residual = ResidualPolicy(rcfg, SkillBasis(rcfg.num_skills, text_encoder.dim))
     residual.load_state_dict(load_file(str(directory / "model.safetensors")))
     stage = FrozenPriorStage(prior, text_encoder, use_projection=cfg.get("use_projection", True))
     return BimanualShift(stage, residual)

@@ -5,9 +5,14 @@ base anchor (Eq. 2), and union the arm's mask with the goal mask (Eq. 3). Back-p
 through depth and intrinsics and voxelising them gives V * M_3D (Eq. 1). The table top is kept as the
 local support surface, so the projected scene looks like the single-arm scenes the prior was trained on.
 
-Fallbacks (counted in ``ProjectionDiagnostics``): a camera where no arm mask reaches an anchor keeps only
-goal + support for that arm; a camera whose anchor lies behind it (wrist cameras) gives its arm masks to
-the arm that camera is mounted on, or to nobody if it is a static camera.
+Eq. 2 compares a mask's centroid with the image-plane anchors when both anchors lie inside the image.
+Where an anchor falls outside the image (side views, where perspective makes off-image anchors
+misleading), the same nearest-anchor rule is applied in 3-D: the mask's pixels are back-projected through
+depth and their centroid is compared with the calibrated base positions.
+
+Fallbacks (counted in ``ProjectionDiagnostics``): a camera with no arm mask keeps only goal + support for
+both arms; a camera whose anchors lie behind it (wrist cameras) gives its arm masks to the arm it is
+mounted on, or to nobody if it is a static camera.
 """
 
 from __future__ import annotations
@@ -17,7 +22,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from bimanualshift.data.frames import KeyframeObservation
-from bimanualshift.perception.anchors import base_anchors
+from bimanualshift.geometry.cameras import depth_to_world_points
+from bimanualshift.perception.anchors import base_anchors, shoulder_position
 from bimanualshift.perception.segmenters.base import CameraView, Segmenter
 from bimanualshift.sim.segmentation import ARM_CLASS
 
@@ -30,6 +36,7 @@ class ProjectionDiagnostics:
     no_arm_found: int = 0
     no_goal_found: int = 0
     anchor_behind_camera: int = 0
+    anchor_outside_image: int = 0
     counts: dict[str, int] = field(default_factory=dict)
 
 
@@ -73,6 +80,7 @@ class ArmProjection:
         arms = obs.scene.arm_names
         assigned = {arm: np.zeros(obs.depth.shape[1:], dtype=bool) for arm in arms}
         anchors = base_anchors({a: obs.scene.arm_bases[a] for a in arms}, obs.intrinsics[c], obs.extrinsics[c])
+        h, w = obs.depth.shape[1:]
         if any(p is None for p in anchors.values()):
             self.diagnostics.anchor_behind_camera += 1
             owner = wrist_owner(camera)
@@ -80,9 +88,17 @@ class ArmProjection:
                 for mask in arm_masks:
                     assigned[owner] |= mask
             return assigned
+        in_view = all(0 <= p[0] < w and 0 <= p[1] < h for p in anchors.values())
+        if not in_view:
+            self.diagnostics.anchor_outside_image += 1
+            points = depth_to_world_points(obs.depth[c], obs.intrinsics[c], obs.extrinsics[c])
         for mask in arm_masks:
-            rows, cols = np.nonzero(mask)
-            centroid = np.array([cols.mean(), rows.mean()])
-            nearest = min(arms, key=lambda a: float(np.linalg.norm(centroid - anchors[a])))
+            if in_view:
+                rows, cols = np.nonzero(mask)
+                centroid, targets = np.array([cols.mean(), rows.mean()]), anchors
+            else:
+                centroid = points[mask & (obs.depth[c] > 0)].mean(axis=0)
+                targets = {a: shoulder_position(obs.scene.arm_bases[a]) for a in arms}
+            nearest = min(arms, key=lambda a: float(np.linalg.norm(centroid - targets[a])))
             assigned[nearest] |= mask
         return assigned

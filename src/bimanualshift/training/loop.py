@@ -43,7 +43,7 @@ def run_training(run_dir: str | Path, model: nn.Module, optimizer: torch.optim.O
         optimizer.zero_grad(set_to_none=True)
         losses["total"].backward()
         optimizer.step()
-        logged = {k: round(float(v), 5) for k, v in losses.items()}
+        logged = {k: round(float(v.detach()), 5) for k, v in losses.items()}
         bar.set_postfix(loss=logged["total"])
         done = step + 1
         if done % checkpoint_every == 0 or done == steps:

@@ -46,7 +46,8 @@ class PriorBatches:
         grid = VoxelGrid(tuple(config.bounds), config.voxel_size)
         self.samples = samples
         self.grid = grid
-        self.targets = {k: torch.as_tensor(v) for k, v in discrete_targets(samples, grid, config.rotation_bin_degrees).items()}
+        targets = discrete_targets(samples, grid, config.rotation_bin_degrees)
+        self.targets = {k: torch.as_tensor(v) for k, v in targets.items()}
         self.voxels = torch.as_tensor(samples.voxels)
         self.proprio = torch.as_tensor(samples.proprio)
         self.text = torch.as_tensor(default_text_encoder().encode(samples.instructions))

@@ -1,0 +1,34 @@
+# Two commands do everything on a fresh Linux machine (no GPU needed):
+#   make demo   create .venv, install, run the end-to-end demo (collect -> train residual -> evaluate)
+#   make test   create .venv, install, lint and run the test suite
+PYTHON ?= python3
+VENV ?= .venv
+BIN := $(VENV)/bin
+export MUJOCO_GL ?= egl
+export PYOPENGL_PLATFORM ?= egl
+export HF_HUB_OFFLINE ?= 1
+
+.PHONY: install demo test lint benchmark clean
+
+$(BIN)/.installed: pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --upgrade pip
+	$(BIN)/python -m pip install --quiet -e ".[dev]"
+	touch $@
+
+install: $(BIN)/.installed
+
+demo: install
+	$(BIN)/bimanualshift demo
+
+test: install lint
+	$(BIN)/python -m pytest -q
+
+lint: install
+	$(BIN)/ruff check src tests benchmarks
+
+benchmark: install
+	$(BIN)/python -m pytest -q -m benchmark benchmarks
+
+clean:
+	rm -rf $(VENV) runs

@@ -1,0 +1,54 @@
+from pathlib import Path
+
+import numpy as np
+
+from bimanualshift.data.episode import read_episode
+from bimanualshift.data.frames import KeyframeObservation
+from bimanualshift.geometry.voxels import VoxelGrid
+from bimanualshift.perception.observation import ArmObservationBuilder
+from bimanualshift.perception.projection import ArmProjection
+from bimanualshift.perception.segmenters.simulator import SimulatorSegmenter
+
+
+def test_each_arm_keeps_itself_and_the_goal_and_drops_the_other_arm(bimanual_episode_path: Path) -> None:
+    ep = read_episode(bimanual_episode_path)
+    projection = ArmProjection(SimulatorSegmenter())
+    for k in range(ep.num_keyframes):
+        obs = KeyframeObservation.from_episode(ep, k)
+        masks = projection.masks_2d(obs)
+        for arm, other in (("left", "right"), ("right", "left")):
+            own = obs.instance == ep.instance_names.index(f"arm_{arm}")
+            theirs = obs.instance == ep.instance_names.index(f"arm_{other}")
+            goal = np.isin(obs.instance, [i for i, n in enumerate(ep.instance_names) if n.startswith("button")])
+            assert masks[arm][own].mean() > 0.95
+            assert masks[arm][goal].mean() > 0.99
+            assert masks[arm][theirs].mean() < 0.05
+    assert projection.diagnostics.no_goal_found == 0
+
+
+def test_projected_voxels_are_a_subset_of_the_global_scene(bimanual_episode_path: Path) -> None:
+    ep = read_episode(bimanual_episode_path)
+    obs = KeyframeObservation.from_episode(ep, 0)
+    grid = VoxelGrid((-0.1, -1.0, -0.2, 1.0, 1.0, 0.8), 24)  # wide enough to hold both arms
+    full = ArmObservationBuilder(grid).build(obs)
+    masked = ArmObservationBuilder(grid, ArmProjection(SimulatorSegmenter())).build(obs)
+    for arm in ep.arm_names:
+        occ_full, occ_masked = full[arm].voxels[0] > 0, masked[arm].voxels[0] > 0
+        assert occ_masked.sum() > 0
+        assert np.all(occ_full[occ_masked])  # V * M_3D only removes voxels
+        assert occ_masked.sum() < occ_full.sum()
+        np.testing.assert_array_equal(full[arm].proprio, masked[arm].proprio)
+
+
+def test_missing_arm_masks_fall_back_to_goal_and_support(bimanual_episode_path: Path) -> None:
+    class NoArms(SimulatorSegmenter):
+        def segment(self, view, prompts):  # noqa: ANN001, ANN201
+            return [d for d in super().segment(view, prompts) if d.label != "robotic arm"]
+
+    ep = read_episode(bimanual_episode_path)
+    obs = KeyframeObservation.from_episode(ep, 0)
+    projection = ArmProjection(NoArms())
+    masks = projection.masks_2d(obs)
+    arms = np.isin(obs.instance, [ep.instance_names.index("arm_left"), ep.instance_names.index("arm_right")])
+    assert not masks["left"][arms].any()
+    assert projection.diagnostics.no_arm_found == len(ep.camera_names)

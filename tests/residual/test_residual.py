@@ -1,0 +1,60 @@
+import numpy as np
+import torch
+
+from bimanualshift.residual.manager import ResidualConfig, ResidualPolicy, manager_inputs
+from bimanualshift.residual.skills import DEFAULT_SKILL_VERBS, SkillBasis
+
+
+class FakeEncoder:
+    dim = 8
+
+    def encode(self, texts: list[str]) -> np.ndarray:
+        return np.stack([np.full(8, len(t), dtype=np.float32) for t in texts])
+
+
+def tiny(structured: bool = True) -> ResidualPolicy:
+    cfg = ResidualConfig(feature_dim=5, text_dim=8, hidden=16, structured=structured)
+    return ResidualPolicy(cfg, SkillBasis.from_verbs(FakeEncoder()))
+
+
+def inputs(batch: int = 3) -> torch.Tensor:
+    g = torch.Generator().manual_seed(0)
+    return manager_inputs(torch.rand(batch, 5, generator=g), torch.rand(batch, 9, generator=g),
+                          torch.rand(batch, 8, generator=g), torch.rand(batch, 8, generator=g),
+                          torch.rand(batch, 8, generator=g), torch.tensor([0, 1, 0])[:batch], 2)
+
+
+def test_basis_is_initialised_from_the_verbs() -> None:
+    basis = SkillBasis.from_verbs(FakeEncoder())
+    assert basis.z.shape == (16, 8) and len(DEFAULT_SKILL_VERBS) == 16
+    assert basis.z.requires_grad
+    assert torch.equal(basis.z[0], torch.full((8,), float(len("reach"))))
+
+
+def test_weights_sum_to_one_and_v_follows_eq7() -> None:
+    policy = tiny()
+    x = inputs()
+    out = policy(x)
+    torch.testing.assert_close(out["weights"].sum(-1), torch.ones(3))
+    weights, h = policy.manager(x)
+    torch.testing.assert_close(out["v"], weights @ policy.basis.z + h)
+
+
+def test_hand_computed_v() -> None:
+    basis = SkillBasis(2, 2)
+    with torch.no_grad():
+        basis.z.copy_(torch.tensor([[1.0, 0.0], [0.0, 2.0]]))
+    v = basis.combine(torch.tensor([[0.25, 0.75]]), torch.tensor([[0.5, -0.5]]))
+    torch.testing.assert_close(v, torch.tensor([[0.75, 1.0]]))
+
+
+def test_zero_initialised_g_leaves_the_prior_action_unchanged() -> None:
+    out = tiny()(inputs())
+    assert torch.count_nonzero(out["translation"]) == 0 and torch.count_nonzero(out["rotation"]) == 0
+
+
+def test_unstructured_ablation_skips_the_basis() -> None:
+    policy = tiny(structured=False)
+    x = inputs()
+    _, h = policy.manager(x)
+    torch.testing.assert_close(policy(x)["v"], h)
