@@ -138,6 +138,14 @@ def cmd_demo(args: argparse.Namespace) -> None:
     run_demo(_config_from_args(DemoConfig, args))
 
 
+def cmd_report(args: argparse.Namespace) -> None:
+    from bimanualshift.evaluation.markdown import render_readme
+
+    for readme in args.readme:
+        names = render_readme(readme, args.results)
+        print(f"{readme}: regenerated {', '.join(names) if names else 'no results blocks'}")
+
+
 def build_parser() -> argparse.ArgumentParser:
     from bimanualshift.demo import DemoConfig
     from bimanualshift.training.pretrain import PretrainConfig
@@ -186,6 +194,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--config", help="JSON file with DemoConfig fields")
     _add_config_overrides(p, DemoConfig)
     p.set_defaults(func=cmd_demo)
+
+    p = sub.add_parser("report", help="regenerate the README tables from the result files")
+    p.add_argument("--readme", nargs="+", default=["README.md"], help="files with results blocks")
+    p.add_argument("--results", default="results", help="results directory (default: results)")
+    p.set_defaults(func=cmd_report)
     return parser
 
 

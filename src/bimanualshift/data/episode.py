@@ -22,13 +22,14 @@ No pickles: every field is a plain array or a JSON string.
 from __future__ import annotations
 
 import json
-import os
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import h5py
 import numpy as np
+
+from bimanualshift.utils.io import atomic_writer
 
 FORMAT_NAME = "bimanualshift-episode"
 FORMAT_VERSION = 1
@@ -80,23 +81,16 @@ def episode_path(root: str | Path, task: str, seed: int) -> Path:
 def write_episode(path: str | Path, episode: Episode) -> Path:
     path = Path(path)
     _validate_arrays(episode.arrays, len(episode.camera_names), len(episode.arm_names), str(path))
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
-    try:
-        with h5py.File(tmp, "w") as f:
-            f.attrs["format"] = FORMAT_NAME
-            f.attrs["version"] = FORMAT_VERSION
-            for key in SCALAR_ATTRS:
-                f.attrs[key] = getattr(episode, key)
-            for key in JSON_ATTRS:
-                f.attrs[key] = json.dumps(getattr(episode, key))
-            for name, array in episode.arrays.items():
-                f.create_dataset(name, data=array, compression="gzip", compression_opts=4,
-                                 chunks=(1, *array.shape[1:]) if array.ndim > 1 else None)
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
+    with atomic_writer(path) as tmp, h5py.File(tmp, "w") as f:
+        f.attrs["format"] = FORMAT_NAME
+        f.attrs["version"] = FORMAT_VERSION
+        for key in SCALAR_ATTRS:
+            f.attrs[key] = getattr(episode, key)
+        for key in JSON_ATTRS:
+            f.attrs[key] = json.dumps(getattr(episode, key))
+        for name, array in episode.arrays.items():
+            f.create_dataset(name, data=array, compression="gzip", compression_opts=4,
+                             chunks=(1, *array.shape[1:]) if array.ndim > 1 else None)
     return path
 
 

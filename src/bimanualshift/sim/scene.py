@@ -6,17 +6,30 @@ supplies its objects as MJCF. Robots are commanded with absolute end-effector po
 
 from __future__ import annotations
 
+import logging
+import warnings
 import xml.etree.ElementTree as ET
 
 import numpy as np
-from robosuite.controllers import load_composite_controller_config
-from robosuite.environments.manipulation.manipulation_env import ManipulationEnv
-from robosuite.models.arenas import TableArena
-from robosuite.models.tasks import ManipulationTask
 
-from bimanualshift.geometry.frames import ArmFrame
-from bimanualshift.sim.cameras import STATIC_CAMERAS, camera_xml
-from bimanualshift.sim.task import Task
+# robosuite announces optional extras (private macros, robosuite_models, mink IK) at import and warns
+# about controller parts a Panda does not have on every env: none of it concerns this package.
+warnings.filterwarnings("ignore", module="glfw")
+logging.disable(logging.WARNING)
+try:
+    import robosuite  # noqa: F401
+finally:
+    logging.disable(logging.NOTSET)
+logging.getLogger("robosuite_logs").setLevel(logging.ERROR)
+
+from robosuite.controllers import load_composite_controller_config  # noqa: E402
+from robosuite.environments.manipulation.manipulation_env import ManipulationEnv  # noqa: E402
+from robosuite.models.arenas import TableArena  # noqa: E402
+from robosuite.models.tasks import ManipulationTask  # noqa: E402
+
+from bimanualshift.geometry.frames import ArmFrame  # noqa: E402
+from bimanualshift.sim.cameras import STATIC_CAMERAS, camera_xml  # noqa: E402
+from bimanualshift.sim.task import Task  # noqa: E402
 
 TABLE_SIZE = (0.8, 1.6, 0.05)
 TABLE_TOP_Z = 0.8

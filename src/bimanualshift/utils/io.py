@@ -15,7 +15,8 @@ def atomic_writer(path: str | Path) -> Iterator[Path]:
     """Yields a temporary path to write; on success it replaces ``path``, on error it is removed."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
+    # Keep the suffix: some writers (imageio's ffmpeg) pick the format from it.
+    tmp = path.with_name(f".{path.stem}.tmp{os.getpid()}{path.suffix}")
     try:
         yield tmp
         os.replace(tmp, path)

@@ -1,0 +1,54 @@
+"""Markdown tables generated from result files, spliced into README files between marker comments.
+
+`bimanualshift report` rewrites every block ``<!-- results:NAME -->`` ... ``<!-- /results:NAME -->`` with
+the table built from ``results/NAME/summary.json`` (or ``results/NAME.json``), so no number is typed.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+from typing import Any
+
+from bimanualshift.utils.io import atomic_write_text
+
+BLOCK = re.compile(r"(<!-- results:(?P<name>[\w/.-]+) -->\n)(?P<body>.*?)(<!-- /results:(?P=name) -->)", re.S)
+
+
+def success_table(result: dict[str, Any]) -> str:
+    lines = ["| task | method | demos | success | 95 % CI | episodes |", "|---|---|---|---|---|---|"]
+    for r in result["rows"]:
+        lo, hi = r["ci95"]
+        lines.append(f"| {r['task']} | {r['method']} | {r.get('demos', '')} | {100 * r['success']:.1f} % | "
+                     f"{100 * lo:.1f}–{100 * hi:.1f} % | {r['episodes']} |")
+    lines.append("")
+    lines.append(f"Produced by `{result['command']}` at commit `{result['commit'][:12]}` on {result['created']} "
+                 f"({result['machine']}); wall time {result['wall_time_s'] / 60:.1f} min. "
+                 f"Test seeds {result['seeds']['test'][0]}–{result['seeds']['test'][-1]}.")
+    return "\n".join(lines) + "\n"
+
+
+def result_file(results_dir: Path, name: str) -> Path:
+    for candidate in (results_dir / name / "summary.json", results_dir / f"{name}.json"):
+        if candidate.is_file():
+            return candidate
+    raise FileNotFoundError(f"no result file for block {name!r} under {results_dir}")
+
+
+def render_readme(readme: str | Path, results_dir: str | Path = "results") -> list[str]:
+    """Regenerate every results block of ``readme``; returns the names of the blocks it rewrote."""
+    readme, results_dir = Path(readme), Path(results_dir)
+    text = readme.read_text()
+    names: list[str] = []
+
+    def replace(match: re.Match[str]) -> str:
+        name = match.group("name")
+        names.append(name)
+        table = success_table(json.loads(result_file(results_dir, name).read_text()))
+        return match.group(1) + table + match.group(4)
+
+    new = BLOCK.sub(replace, text)
+    if new != text:
+        atomic_write_text(readme, new)
+    return names
