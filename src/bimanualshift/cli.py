@@ -122,11 +122,13 @@ def cmd_eval(args: argparse.Namespace) -> None:
         policy = FrozenPriorPerArm(FrozenPriorStage(UnimanualPrior.from_pretrained(args.prior), text_encoder,
                                                     use_projection=False))
     seeds = split_seeds(args.split, args.episodes)
-    env = ManipulationEnv(args.task)
-    records = evaluate(env, policy, seeds, args.max_keyframes or env.task.max_keyframes)
-    env.close()
+    records = []
+    for task in args.task:
+        env = ManipulationEnv(task)
+        records += evaluate(env, policy, seeds, args.max_keyframes or env.task.max_keyframes)
+        env.close()
     rows = success_rows(records)
-    print_success_table(rows, f"{args.task} ({args.split} seeds)")
+    print_success_table(rows, f"{' '.join(args.task)} ({args.split} seeds)")
     if args.out:
         write_result(args.out, "bimanualshift " + " ".join(sys.argv[1:]), {args.split: seeds}, started, rows)
         print(f"wrote {args.out}")
@@ -183,8 +185,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--method", default="bimanualshift", choices=["bimanualshift", "leader_follower"])
     p.add_argument("--checkpoint", help="BimanualShift checkpoint directory (from `train`)")
     p.add_argument("--prior", help="prior checkpoint directory (for leader_follower)")
-    p.add_argument("--task", default="push_two_buttons")
-    p.add_argument("--episodes", type=int, default=20)
+    p.add_argument("--task", nargs="+", default=["push_two_buttons"], help="one or more task names")
+    p.add_argument("--episodes", type=int, default=20, help="episodes per task")
     p.add_argument("--split", default="test", choices=["validation", "test"])
     p.add_argument("--max-keyframes", type=int, default=None, help="episode length limit (default: the task's)")
     p.add_argument("--out", help="write a result JSON here")

@@ -12,9 +12,9 @@ from bimanualshift.geometry.frames import ArmFrame
 from bimanualshift.geometry.voxels import VoxelGrid
 from bimanualshift.perception.projection import ArmProjection
 
-# Arm-frame workspace: 0.2-0.9 m ahead of the base, +-0.45 m to the side, from below the table top
-# (the base sits 0.11 m below it) to 0.5 m above the base.
-DEFAULT_ARM_BOUNDS = (0.2, -0.45, -0.15, 0.9, 0.45, 0.5)
+# Arm-frame workspace: 0.2-0.9 m ahead of the base, +-0.45 m to the side, from just below the table top
+# (the base sits 0.11 m below it) to 0.35 m above the base: 2.2 x 2.8 x 1.6 cm voxels at 32^3.
+DEFAULT_ARM_BOUNDS = (0.2, -0.45, -0.15, 0.9, 0.45, 0.35)
 
 
 @dataclass

@@ -20,7 +20,7 @@ from bimanualshift.training.augment import random_shift, shift_voxels
 from bimanualshift.training.loop import run_training
 from bimanualshift.training.optim import make_lamb
 from bimanualshift.training.samples import ArmSamples, build_arm_samples, discrete_targets
-from bimanualshift.utils.io import atomic_write_json
+from bimanualshift.utils.io import atomic_write_json, atomic_write_text
 
 
 @dataclass
@@ -84,6 +84,38 @@ def translation_accuracy(model: PerActPrior, batches: PriorBatches, tolerance_m:
     return float(np.mean(hits))
 
 
+def model_card(cfg: PretrainConfig, step: int, accuracy: float, train_episodes: int, val_episodes: int,
+               wall_time_s: float) -> str:
+    overrides = f" --model '{json.dumps(cfg.model)}'" if cfg.model else ""
+    return f"""# PerAct-style single-arm prior
+
+A frozen unimanual prior for BimanualShift: voxels in the arm's base frame -> translation heat-map,
+10-degree Euler rotation bins, gripper and collision. Trained on **single-arm demonstrations only**.
+
+| | |
+|---|---|
+| training tasks | {", ".join(cfg.tasks)} |
+| training episodes | {train_episodes} (scripted expert, train seeds from 0) |
+| validation episodes | {val_episodes} (validation seeds from 100000; used to pick this checkpoint) |
+| chosen step | {step} of {cfg.steps} (batch {cfg.batch_size}, LAMB lr {cfg.lr}, voxel-shift augmentation \
++-{cfg.augment_max_voxels}) |
+| validation keyframes within 3 cm | {100 * accuracy:.1f} % |
+| wall time to this step | {wall_time_s / 60:.1f} min on the machine that trained it |
+
+Reproduce: `bimanualshift collect --task {" ".join(cfg.tasks)} --episodes {train_episodes // len(cfg.tasks)} --out {cfg.data} --workers 2`,
+`bimanualshift collect --task {" ".join(cfg.tasks)} --episodes {val_episodes // len(cfg.tasks)} --split validation --out \
+{cfg.validation_data}`, then `bimanualshift pretrain --data {cfg.data} --validation-data \
+{cfg.validation_data} --steps {cfg.steps} --seed {cfg.seed}{overrides}`.
+
+## Measured single-arm success
+
+<!-- results:prior_single_arm -->
+<!-- /results:prior_single_arm -->
+
+Generated from `results/prior_single_arm.json` by `bimanualshift report --readme <this file>`.
+"""
+
+
 def pretrain(cfg: PretrainConfig) -> Path:
     started = time.time()
     out = Path(cfg.out)
@@ -120,6 +152,8 @@ def pretrain(cfg: PretrainConfig) -> Path:
             "trained_steps": step, "validation_translation_accuracy": -value,
             "pretrain_tasks": cfg.tasks, "train_episodes": len(paths),
         })
+        atomic_write_text(out / "best" / "README.md", model_card(cfg, step, -value, len(paths), len(val_paths),
+                                                               time.time() - started))
 
     result = run_training(out, model, optimizer, cfg.steps, step_fn, cfg.seed, cfg.checkpoint_every,
                           validate, on_best, desc="pretrain")

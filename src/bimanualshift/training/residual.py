@@ -88,7 +88,6 @@ def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Pat
     out = Path(cfg.out)
     out.mkdir(parents=True, exist_ok=True)
     atomic_write_json(out / "train_config.json", asdict(cfg))
-    torch.manual_seed(cfg.seed)
     text_encoder = default_text_encoder()
     prior = prior if prior is not None else UnimanualPrior.from_pretrained(cfg.prior)
     stage = FrozenPriorStage(prior, text_encoder, use_projection=cfg.use_projection)
@@ -99,6 +98,7 @@ def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Pat
     train = residual_data(paths, stage, text_encoder, "prior outputs (train)")
     val_paths = list_episodes(cfg.validation_data, cfg.task)
     val = residual_data(val_paths, stage, text_encoder, "prior outputs (val)") if val_paths else train
+    torch.manual_seed(cfg.seed)  # here, so how the prior was obtained cannot change the residual's init
     rcfg = ResidualConfig(feature_dim=prior.feature_dim, text_dim=text_encoder.dim, structured=cfg.structured)
     residual = ResidualPolicy(rcfg, SkillBasis.from_verbs(text_encoder))
     optimizer = make_lamb(residual.parameters(), lr=cfg.lr)

@@ -64,8 +64,12 @@ class PushTwoButtons(Task):
 
 
 def press_keyframes(tops: dict[str, np.ndarray]) -> list[Keyframe]:
-    """Above the button with the gripper closed, press down past the cap's top, back up."""
+    """Above the button with the gripper closed, press down through the cap's travel, back up.
+
+    The press target lies 2.5 cm below the released cap top, beyond the 1.5 cm travel: the cap bottoms
+    out, so a policy whose target is a centimetre too high (one voxel) still presses the button.
+    """
     frames: list[Keyframe] = []
-    for dz in (0.08, -0.012, 0.08):
+    for dz in (0.08, -0.025, 0.08):
         frames.append({arm: ArmAction(top + [0, 0, dz], DOWN_QUAT, 0.0, 0.0) for arm, top in tops.items()})
     return frames
