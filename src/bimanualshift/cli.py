@@ -118,9 +118,9 @@ def cmd_eval(args: argparse.Namespace) -> None:
         policy = load_bimanualshift(args.checkpoint, text_encoder)
     else:
         if not args.prior:
-            sys.exit("error: --prior DIR is required for --method leader_follower")
+            sys.exit(f"error: --prior DIR is required for --method {args.method}")
         policy = FrozenPriorPerArm(FrozenPriorStage(UnimanualPrior.from_pretrained(args.prior), text_encoder,
-                                                    use_projection=False))
+                                                    use_projection=False), name=args.method)
     seeds = split_seeds(args.split, args.episodes)
     records = []
     for task in args.task:
@@ -182,7 +182,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_train)
 
     p = sub.add_parser("eval", help="evaluate a method on held-out seeds")
-    p.add_argument("--method", default="bimanualshift", choices=["bimanualshift", "leader_follower"])
+    p.add_argument("--method", default="bimanualshift", choices=["bimanualshift", "leader_follower", "prior"],
+                   help="bimanualshift (needs --checkpoint); leader_follower = the frozen prior driving each arm; "
+                        "prior = the same, named for single-arm tasks (both need --prior)")
     p.add_argument("--checkpoint", help="BimanualShift checkpoint directory (from `train`)")
     p.add_argument("--prior", help="prior checkpoint directory (for leader_follower)")
     p.add_argument("--task", nargs="+", default=["push_two_buttons"], help="one or more task names")

@@ -1,4 +1,8 @@
-"""Baseline: the same frozen single-arm prior drives each arm on its own, with no residual."""
+"""Baseline: the same frozen single-arm prior drives each arm on its own, with no residual.
+
+This is the leader-follower baseline in its simplest form (no fine-tuning, no conditioning of one arm
+on the other); on a single-arm task it is simply the prior itself, reported under the name "prior".
+"""
 
 from __future__ import annotations
 
@@ -9,10 +13,9 @@ from bimanualshift.methods.stages import FrozenPriorStage, world_action
 
 
 class FrozenPriorPerArm:
-    name = "leader_follower"
-
-    def __init__(self, stage: FrozenPriorStage) -> None:
+    def __init__(self, stage: FrozenPriorStage, name: str = "leader_follower") -> None:
         self.stage = stage
+        self.name = name
 
     def reset(self) -> None:
         pass

@@ -7,6 +7,7 @@ seeded by (seed, step), so a resumed run sees exactly the batches an uninterrupt
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -28,14 +29,17 @@ def step_generator(seed: int, step: int) -> torch.Generator:
 
 def run_training(run_dir: str | Path, model: nn.Module, optimizer: torch.optim.Optimizer, steps: int,
                  step_fn: StepFn, seed: int, checkpoint_every: int = 100,
-                 validate_fn: ValidateFn | None = None, on_best: Callable[[int, float], None] | None = None,
+                 validate_fn: ValidateFn | None = None, on_best: Callable[[int, float, float], None] | None = None,
                  desc: str = "train") -> dict[str, Any]:
     run_dir = Path(run_dir)
     start, history, best = 0, [], {"step": None, "value": float("inf")}
+    elapsed_before = 0.0  # training seconds spent by earlier, interrupted runs of this directory
     ckpt = latest_checkpoint(run_dir)
     if ckpt is not None:
         state = load_checkpoint(ckpt, model, optimizer)
         start, history, best = state["step"], state.get("history", []), state.get("best", best)
+        elapsed_before = float(state.get("elapsed_s", 0.0))
+    resumed_at = time.time()
     bar = tqdm(range(start, steps), initial=start, total=steps, desc=desc, unit="step")
     for step in bar:
         model.train()
@@ -47,7 +51,8 @@ def run_training(run_dir: str | Path, model: nn.Module, optimizer: torch.optim.O
         bar.set_postfix(loss=logged["total"])
         done = step + 1
         if done % checkpoint_every == 0 or done == steps:
-            record: dict[str, Any] = {"step": done, **logged}
+            elapsed = round(elapsed_before + time.time() - resumed_at, 1)
+            record: dict[str, Any] = {"step": done, "elapsed_s": elapsed, **logged}
             if validate_fn is not None:
                 model.eval()
                 value = float(validate_fn(done))
@@ -55,8 +60,8 @@ def run_training(run_dir: str | Path, model: nn.Module, optimizer: torch.optim.O
                 if value < best["value"]:
                     best = {"step": done, "value": value}
                     if on_best is not None:
-                        on_best(done, value)
+                        on_best(done, value, elapsed)
             history.append(record)
-            save_checkpoint(run_dir, done, model, optimizer, {"history": history, "best": best})
+            save_checkpoint(run_dir, done, model, optimizer, {"history": history, "best": best, "elapsed_s": elapsed})
             atomic_write_json(run_dir / "history.json", {"history": history, "best": best})
     return {"history": history, "best": best}

@@ -87,6 +87,16 @@ def translation_accuracy(model: PerActPrior, batches: PriorBatches, tolerance_m:
 def model_card(cfg: PretrainConfig, step: int, accuracy: float, train_episodes: int, val_episodes: int,
                wall_time_s: float) -> str:
     overrides = f" --model '{json.dumps(cfg.model)}'" if cfg.model else ""
+    tasks = " ".join(cfg.tasks)
+    shifts = f"whole-voxel shifts of up to {cfg.augment_max_voxels} voxels"
+    reproduce = "\n".join([
+        f"bimanualshift collect --task {tasks} --episodes {train_episodes // len(cfg.tasks)} "
+        f"--out {cfg.data} --workers 2",
+        f"bimanualshift collect --task {tasks} --episodes {val_episodes // len(cfg.tasks)} --split validation "
+        f"--out {cfg.validation_data} --workers 2",
+        f"bimanualshift pretrain --data {cfg.data} --validation-data {cfg.validation_data} --steps {cfg.steps} "
+        f"--seed {cfg.seed}{overrides}",
+    ])
     return f"""# PerAct-style single-arm prior
 
 A frozen unimanual prior for BimanualShift: voxels in the arm's base frame -> translation heat-map,
@@ -97,15 +107,15 @@ A frozen unimanual prior for BimanualShift: voxels in the arm's base frame -> tr
 | training tasks | {", ".join(cfg.tasks)} |
 | training episodes | {train_episodes} (scripted expert, train seeds from 0) |
 | validation episodes | {val_episodes} (validation seeds from 100000; used to pick this checkpoint) |
-| chosen step | {step} of {cfg.steps} (batch {cfg.batch_size}, LAMB lr {cfg.lr}, voxel-shift augmentation \
-+-{cfg.augment_max_voxels}) |
+| chosen step | {step} of {cfg.steps} (batch {cfg.batch_size}, LAMB lr {cfg.lr}, {shifts}) |
 | validation keyframes within 3 cm | {100 * accuracy:.1f} % |
-| wall time to this step | {wall_time_s / 60:.1f} min on the machine that trained it |
+| training time to this step | {wall_time_s / 60:.1f} min (optimisation and validation, after data loading) |
 
-Reproduce: `bimanualshift collect --task {" ".join(cfg.tasks)} --episodes {train_episodes // len(cfg.tasks)} --out {cfg.data} --workers 2`,
-`bimanualshift collect --task {" ".join(cfg.tasks)} --episodes {val_episodes // len(cfg.tasks)} --split validation --out \
-{cfg.validation_data}`, then `bimanualshift pretrain --data {cfg.data} --validation-data \
-{cfg.validation_data} --steps {cfg.steps} --seed {cfg.seed}{overrides}`.
+Reproduce:
+
+```bash
+{reproduce}
+```
 
 ## Measured single-arm success
 
@@ -147,13 +157,13 @@ def pretrain(cfg: PretrainConfig) -> Path:
     def validate(step: int) -> float:
         return -translation_accuracy(model, val if val is not None else train)
 
-    def on_best(step: int, value: float) -> None:
+    def on_best(step: int, value: float, elapsed_s: float) -> None:
         model.save_pretrained(out / "best", extra={
             "trained_steps": step, "validation_translation_accuracy": -value,
             "pretrain_tasks": cfg.tasks, "train_episodes": len(paths),
         })
         atomic_write_text(out / "best" / "README.md", model_card(cfg, step, -value, len(paths), len(val_paths),
-                                                               time.time() - started))
+                                                               elapsed_s))
 
     result = run_training(out, model, optimizer, cfg.steps, step_fn, cfg.seed, cfg.checkpoint_every,
                           validate, on_best, desc="pretrain")

@@ -114,7 +114,7 @@ def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Pat
         with torch.no_grad():
             return float(bc_loss(residual(val.inputs), val.translation, val.rotation, cfg.beta)["total"])
 
-    def on_best(step: int, value: float) -> None:
+    def on_best(step: int, value: float, elapsed_s: float) -> None:
         save_residual(out / "best", residual, {**checkpoint_meta, "trained_steps": step, "validation_loss": value})
 
     result = run_training(out, residual, optimizer, cfg.steps, step_fn, cfg.seed, cfg.checkpoint_every,
