@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import torch
+from safetensors.torch import load_file
 
 from bimanualshift.data.episode import list_episodes
 from bimanualshift.encoders.text import TextEncoder, default_text_encoder
@@ -22,10 +23,13 @@ from bimanualshift.methods.stages import FrozenPriorStage
 from bimanualshift.priors.base import UnimanualPrior
 from bimanualshift.residual.manager import ResidualConfig, ResidualPolicy, manager_inputs
 from bimanualshift.residual.skills import SkillBasis
+from bimanualshift.training.augment import random_shift, shift_voxels
 from bimanualshift.training.loop import run_training
 from bimanualshift.training.optim import make_lamb
 from bimanualshift.training.samples import build_arm_samples
 from bimanualshift.utils.io import atomic_write_json
+
+ARM_ORDER = ("left", "right")  # the Manager's arm one-hot; single-arm data counts as "left"
 
 
 @dataclass
@@ -43,6 +47,8 @@ class TrainConfig:
     checkpoint_every: int = 250
     use_projection: bool = True
     structured: bool = True
+    augment_copies: int = 4  # shifted copies of every demo keyframe, each through the frozen prior
+    augment_max_voxels: int = 2
     seed: int = 0
 
 
@@ -53,26 +59,47 @@ class ResidualData:
     rotation: torch.Tensor  # (N, 3) axis-angle r with exp(r) * R_prior = R_expert
 
 
-def residual_data(paths: list[Path], stage: FrozenPriorStage, text_encoder: TextEncoder, desc: str) -> ResidualData:
+def residual_data(paths: list[Path], stage: FrozenPriorStage, text_encoder: TextEncoder, desc: str,
+                  augment_copies: int = 0, augment_max_voxels: int = 0, seed: int = 0) -> ResidualData:
+    """Manager inputs and residual targets for every (keyframe, arm), from the frozen prior's outputs.
+
+    With ``augment_copies`` > 0, each sample is also seen through that many whole-voxel translations of
+    the scene (the targets and both arms' proprioception move with it), and the frozen prior is run on
+    each shifted copy: augmentation the prior's cache allows, since it is computed once before training.
+    """
     samples = build_arm_samples(paths, stage.builder, stage.max_keyframes, desc=desc)
-    arm_names = sorted(set(samples.arm))
-    arm_index = torch.as_tensor([["left", "right"].index(a) if a in ("left", "right") else 0 for a in samples.arm])
+    grid = stage.builder.grid
+    arm_index = torch.as_tensor([ARM_ORDER.index(a) if a in ARM_ORDER else 0 for a in samples.arm])
     text = torch.as_tensor(text_encoder.encode(samples.instructions))
-    features, base = [], []
-    with torch.no_grad():
-        for start in range(0, len(samples), 32):
-            sl = slice(start, start + 32)
-            out = stage.prior.predict(torch.as_tensor(samples.voxels[sl]).float(),
-                                      torch.as_tensor(samples.proprio[sl]), text[sl])
-            features.append(out.features)
-            base.append(torch.cat([out.position, out.quat, out.gripper_open[:, None]], dim=-1))
-    features_t, base_t = torch.cat(features), torch.cat(base)
-    inputs = manager_inputs(features_t, torch.as_tensor(samples.proprio), torch.as_tensor(samples.other_proprio),
-                            text, base_t, arm_index, max(2, len(arm_names)))
-    translation = torch.as_tensor(samples.action_pos) - base_t[:, :3]
-    rotation = torch.as_tensor(np.stack([rotation_difference(t, b) for t, b in
-                                         zip(samples.action_quat, base_t[:, 3:7].numpy())]), dtype=torch.float32)
-    return ResidualData(inputs, translation, rotation)
+    generator = torch.Generator().manual_seed(seed)
+    parts = []
+    for copy in range(1 + augment_copies):
+        voxels = torch.as_tensor(samples.voxels).float()
+        offsets = np.zeros((len(samples), 3), np.float32)
+        if copy > 0:
+            for j in range(len(samples)):
+                shift = random_shift(generator, augment_max_voxels)
+                voxels[j] = shift_voxels(voxels[j], shift)
+                offsets[j] = np.asarray(shift) * grid.voxel_size
+        proprio = torch.as_tensor(samples.proprio).clone()
+        other = torch.as_tensor(samples.other_proprio).clone()
+        proprio[:, :3] += torch.as_tensor(offsets)
+        if samples.other_proprio.any():
+            other[:, :3] += torch.as_tensor(offsets)
+        features, base = [], []
+        with torch.no_grad():
+            for start in range(0, len(samples), 32):
+                sl = slice(start, start + 32)
+                out = stage.prior.predict(voxels[sl], proprio[sl], text[sl])
+                features.append(out.features)
+                base.append(torch.cat([out.position, out.quat, out.gripper_open[:, None]], dim=-1))
+        features_t, base_t = torch.cat(features), torch.cat(base)
+        inputs = manager_inputs(features_t, proprio, other, text, base_t, arm_index, len(ARM_ORDER))
+        translation = torch.as_tensor(samples.action_pos + offsets) - base_t[:, :3]
+        rotation = torch.as_tensor(np.stack([rotation_difference(t, b) for t, b in
+                                             zip(samples.action_quat, base_t[:, 3:7].numpy())]), dtype=torch.float32)
+        parts.append(ResidualData(inputs, translation, rotation))
+    return ResidualData(*(torch.cat([getattr(p, f) for p in parts]) for f in ("inputs", "translation", "rotation")))
 
 
 def bc_loss(out: dict[str, torch.Tensor], translation: torch.Tensor, rotation: torch.Tensor, beta: float
@@ -81,6 +108,17 @@ def bc_loss(out: dict[str, torch.Tensor], translation: torch.Tensor, rotation: t
     trans = ((out["translation"] - translation) ** 2).sum(-1).mean()
     rot = ((out["rotation"] - rotation) ** 2).sum(-1).mean()
     return {"translation": trans, "rotation": rot, "total": trans + beta * rot}
+
+
+def translation_report(residual: ResidualPolicy, data: ResidualData) -> dict[str, float]:
+    """How far the prior alone and prior + residual land from the expert's position (validation data)."""
+    with torch.no_grad():
+        corrected = data.translation - residual(data.inputs)["translation"]
+    report = {}
+    for name, err in (("prior", data.translation.norm(dim=-1)), ("prior_plus_residual", corrected.norm(dim=-1))):
+        report[f"{name}_median_m"] = round(float(err.median()), 4)
+        report[f"{name}_within_2cm"] = round(float((err < 0.02).float().mean()), 4)
+    return report
 
 
 def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Path:
@@ -95,7 +133,8 @@ def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Pat
     if not paths:
         raise FileNotFoundError(f"no bimanual demos for {cfg.task} under {cfg.data}; run "
                                 f"`bimanualshift collect --task {cfg.task} --out {cfg.data}` first")
-    train = residual_data(paths, stage, text_encoder, "prior outputs (train)")
+    train = residual_data(paths, stage, text_encoder, "prior outputs (train)", cfg.augment_copies,
+                          cfg.augment_max_voxels, cfg.seed)
     val_paths = list_episodes(cfg.validation_data, cfg.task)
     val = residual_data(val_paths, stage, text_encoder, "prior outputs (val)") if val_paths else train
     torch.manual_seed(cfg.seed)  # here, so how the prior was obtained cannot change the residual's init
@@ -119,6 +158,9 @@ def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Pat
 
     result = run_training(out, residual, optimizer, cfg.steps, step_fn, cfg.seed, cfg.checkpoint_every,
                           validate, on_best, desc="train residual")
+    if (out / "best" / "model.safetensors").is_file():  # report on the checkpoint the run hands on
+        residual.load_state_dict(load_file(str(out / "best" / "model.safetensors")))
     atomic_write_json(out / "summary.json", {**result, "wall_time_s": round(time.time() - started, 1),
-                                             "train_samples": len(train.inputs)})
+                                             "train_samples": len(train.inputs),
+                                             "validation_translation_error": translation_report(residual, val)})
     return out / "best"
