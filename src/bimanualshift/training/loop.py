@@ -40,6 +40,14 @@ def run_training(run_dir: str | Path, model: nn.Module, optimizer: torch.optim.O
         start, history, best = state["step"], state.get("history", []), state.get("best", best)
         elapsed_before = float(state.get("elapsed_s", 0.0))
     resumed_at = time.time()
+    if start == 0 and validate_fn is not None:
+        # The untrained model is a candidate too: a residual branch that starts as the identity must beat
+        # the frozen prior alone on validation data before a trained checkpoint replaces it.
+        model.eval()
+        best = {"step": 0, "value": float(validate_fn(0))}
+        history.append({"step": 0, "elapsed_s": 0.0, "validation": best["value"]})
+        if on_best is not None:
+            on_best(0, best["value"], 0.0)
     bar = tqdm(range(start, steps), initial=start, total=steps, desc=desc, unit="step")
     for step in bar:
         model.train()

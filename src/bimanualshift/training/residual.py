@@ -47,7 +47,7 @@ class TrainConfig:
     checkpoint_every: int = 250
     use_projection: bool = True
     structured: bool = True
-    augment_copies: int = 4  # shifted copies of every demo keyframe, each through the frozen prior
+    augment_copies: int = 0  # shifted copies of every demo keyframe, each through the frozen prior
     augment_max_voxels: int = 2
     seed: int = 0
 
