@@ -62,7 +62,7 @@ def ensure_prior(cfg: DemoConfig) -> str:
 
 def run_demo(cfg: DemoConfig) -> dict:
     started = time.time()
-    command = "bimanualshift demo " + " ".join(shlex.quote(a) for a in sys.argv[2:])
+    command = " ".join(["bimanualshift demo", *(shlex.quote(a) for a in sys.argv[2:])])
     train_seeds = split_seeds("train", cfg.demos)
     val_seeds = split_seeds("validation", cfg.validation_demos)
     test_seeds = split_seeds("test", cfg.test_episodes)

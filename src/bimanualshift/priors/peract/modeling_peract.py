@@ -14,7 +14,7 @@ from bimanualshift.geometry.voxels import VOXEL_CHANNELS, VoxelGrid
 from bimanualshift.priors.base import PriorOutput, UnimanualPrior, register_prior
 from bimanualshift.priors.peract.configuration_peract import PerActConfig
 
-STEM = 8  # channels of the full-resolution voxel stem
+STEM = 16  # channels of the full-resolution voxel stem
 NUM_PEAKS = 4
 
 
@@ -47,6 +47,9 @@ class PerActPrior(UnimanualPrior):
         self.patch_embed = nn.Conv3d(STEM, c.dim, c.patch_size, stride=c.patch_size)
         self.pos_embed = nn.Parameter(torch.randn(1, self.patches**3, c.dim) * 0.02)
         self.text_proj = nn.Linear(c.text_dim, c.dim)
+        # FiLM of the full-resolution stem by the instruction: lets "the red button" highlight red voxels
+        # before any pooling, which a single language token attended to by the latents learns slowly.
+        self.text_film = nn.Linear(c.text_dim, 2 * STEM)
         self.proprio_proj = nn.Linear(c.proprio_dim + 1, c.dim)
         self.latents = nn.Parameter(torch.randn(1, c.num_latents, c.dim) * 0.02)
         self.encode = CrossAttention(c.dim, c.heads)
@@ -85,7 +88,8 @@ class PerActPrior(UnimanualPrior):
         c = self.config
         b = voxels.shape[0]
         x = torch.cat([voxels, self.coords.expand(b, -1, -1, -1, -1)], dim=1)
-        stem = self.voxel_stem(x)  # (B, 16, S, S, S)
+        gamma, beta = self.text_film(text).reshape(b, 2, STEM, 1, 1, 1).unbind(1)
+        stem = self.voxel_stem(x) * (1 + gamma) + beta  # (B, STEM, S, S, S)
         tokens = self.patch_embed(stem).flatten(2).transpose(1, 2) + self.pos_embed  # (B, P^3, D)
         context = torch.cat([tokens, self.text_proj(text)[:, None], self.proprio_proj(proprio)[:, None]], dim=1)
         latents = self.encode(self.latents.expand(b, -1, -1), context)
