@@ -57,6 +57,11 @@ class PerActPrior(UnimanualPrior):
         self.decode = CrossAttention(c.dim, c.heads)
         # Each decoded patch token predicts the logits of its patch_size^3 voxels (a 3-D pixel shuffle),
         # refined by a 1x1x1 read-out of the full-resolution stem: far cheaper than convolving at S^3.
+        # 3x3x3 convolutions over the decoded patch grid give each patch its neighbours' context (a target
+        # 8 cm above a button lies one or two patches away from the button itself).
+        self.decoder_conv = nn.Sequential(
+            nn.Conv3d(c.dim, c.dim, 3, padding=1), nn.GELU(), nn.Conv3d(c.dim, c.dim, 3, padding=1)
+        )
         self.translation_patch = nn.Linear(c.dim, c.patch_size**3)
         self.translation_stem = nn.Conv3d(STEM, 1, 1)
         self.global_head = nn.Sequential(
@@ -97,6 +102,8 @@ class PerActPrior(UnimanualPrior):
             latents = layer(latents, torch.cat([latents, context[:, -2:]], dim=1))
         decoded = self.decode(tokens, latents)  # (B, P^3, D)
         p, q = self.patches, c.patch_size
+        grid = decoded.transpose(1, 2).reshape(b, c.dim, p, p, p)
+        decoded = decoded + self.decoder_conv(grid).flatten(2).transpose(1, 2)
         patch_logits = self.translation_patch(decoded).reshape(b, p, p, p, q, q, q)
         patch_logits = patch_logits.permute(0, 1, 4, 2, 5, 3, 6).reshape(b, 1, p * q, p * q, p * q)
         heatmap = (patch_logits + self.translation_stem(stem)).flatten(1)  # (B, S^3)
