@@ -9,6 +9,7 @@
 
 from __future__ import annotations
 
+import json
 import shlex
 import sys
 import time
@@ -60,6 +61,13 @@ def ensure_prior(cfg: DemoConfig) -> str:
     return str(best)
 
 
+def residual_summary(run_dir: Path) -> dict:
+    """The residual run's checkpoint choice and validation translation errors, for the result file."""
+    summary = json.loads((run_dir / "summary.json").read_text())
+    return {"best": summary["best"], "wall_time_s": summary["wall_time_s"],
+            "validation_translation_error": summary["validation_translation_error"]}
+
+
 def run_demo(cfg: DemoConfig) -> dict:
     started = time.time()
     command = " ".join(["bimanualshift demo", *(shlex.quote(a) for a in sys.argv[2:])])
@@ -97,6 +105,7 @@ def run_demo(cfg: DemoConfig) -> dict:
                                                      "test": test_seeds}, started, rows,
                  notes=f"prior: {prior_path}; expert demos collected: {stats[cfg.task]}; "
                        f"episodes stop after {cfg.max_keyframes} keyframes",
+                 residual_training=residual_summary(best.parent),
                  episodes=[{"method": r.method, "seed": r.seed, "success": r.success, "keyframes": r.keyframes,
                             "instruction": r.instruction} for r in records])
     print(f"[demo] done in {time.time() - started:.0f} s; results in {results}/")

@@ -72,12 +72,3 @@ class VoxelGrid:
                 grid[1 + c, occupied] = sums[occupied] / counts[occupied]
         return grid.reshape(VOXEL_CHANNELS, s, s, s)
 
-    def occupancy_mask(self, points: np.ndarray) -> np.ndarray:
-        """Boolean (S, S, S) mask of the voxels hit by at least one of ``points``."""
-        points = np.asarray(points, dtype=np.float32).reshape(-1, 3)
-        points = points[self.inside(points) & np.isfinite(points).all(axis=-1)]
-        mask = np.zeros((self.size,) * 3, dtype=bool)
-        if len(points):
-            idx = self.point_to_index(points)
-            mask[idx[:, 0], idx[:, 1], idx[:, 2]] = True
-        return mask

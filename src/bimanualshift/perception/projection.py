@@ -17,7 +17,7 @@ mounted on, or to nobody if it is a static camera.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -37,7 +37,6 @@ class ProjectionDiagnostics:
     no_goal_found: int = 0
     anchor_behind_camera: int = 0
     anchor_outside_image: int = 0
-    counts: dict[str, int] = field(default_factory=dict)
 
 
 def wrist_owner(camera: str) -> str | None:

@@ -60,8 +60,3 @@ class SceneInstances:
     def class_of_geom(self, geom_ids: np.ndarray) -> np.ndarray:
         return self.instance_class[self.instance_of_geom(geom_ids)]
 
-    def ids_of_class(self, cls: str) -> list[int]:
-        if cls not in self.classes:
-            return []
-        c = self.classes.index(cls)
-        return [i for i, k in enumerate(self.instance_class) if k == c]

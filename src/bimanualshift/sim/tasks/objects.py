@@ -1,4 +1,4 @@
-"""MJCF builders and placement helpers shared by tasks.
+"""MJCF builders, placement helpers and expert keyframe helpers shared by tasks.
 
 robosuite computes inertia from geom group 0 only, while cameras render group 1: object geoms are group 1
 (visible and colliding) and every moving body states its inertia explicitly.
@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from bimanualshift.sim.scene import TABLE_TOP_Z
-from bimanualshift.sim.task import SimHandle
+from bimanualshift.sim.task import DOWN_QUAT, ArmAction, Keyframe, SimHandle
 
 BUTTON_RADIUS = 0.035
 BUTTON_TRAVEL = 0.015
@@ -70,3 +70,15 @@ def sample_separated(rng: np.random.Generator, regions: list[tuple[tuple[float, 
         if d.min() >= min_distance:
             return pts
     raise RuntimeError(f"could not place {len(regions)} objects {min_distance} m apart in {regions}")
+
+
+def press_keyframes(tops: dict[str, np.ndarray]) -> list[Keyframe]:
+    """Above the button with the gripper closed, press down through the cap's travel, back up.
+
+    The press target lies 2.5 cm below the released cap top, beyond the 1.5 cm travel: the cap bottoms
+    out, so a policy whose target is a centimetre too high (one voxel) still presses the button.
+    """
+    frames: list[Keyframe] = []
+    for dz in (0.08, -0.025, 0.08):
+        frames.append({arm: ArmAction(top + [0, 0, dz], DOWN_QUAT, 0.0, 0.0) for arm, top in tops.items()})
+    return frames

@@ -4,13 +4,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from bimanualshift.sim.task import COLORS, DOWN_QUAT, ArmAction, Keyframe, SimHandle, Task, register_task
+from bimanualshift.sim.task import COLORS, Keyframe, SimHandle, Task, register_task
 from bimanualshift.sim.tasks.objects import (
     BUTTON_PRESSED_AT,
     button_top,
     button_travel,
     button_xml,
     place_button,
+    press_keyframes,
     sample_separated,
 )
 
@@ -62,14 +63,3 @@ class PushTwoButtons(Task):
         tops = {"left": button_top(sim, BUTTONS[0]), "right": button_top(sim, BUTTONS[1])}
         return press_keyframes(tops)
 
-
-def press_keyframes(tops: dict[str, np.ndarray]) -> list[Keyframe]:
-    """Above the button with the gripper closed, press down through the cap's travel, back up.
-
-    The press target lies 2.5 cm below the released cap top, beyond the 1.5 cm travel: the cap bottoms
-    out, so a policy whose target is a centimetre too high (one voxel) still presses the button.
-    """
-    frames: list[Keyframe] = []
-    for dz in (0.08, -0.025, 0.08):
-        frames.append({arm: ArmAction(top + [0, 0, dz], DOWN_QUAT, 0.0, 0.0) for arm, top in tops.items()})
-    return frames

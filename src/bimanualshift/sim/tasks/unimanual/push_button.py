@@ -5,13 +5,13 @@ from __future__ import annotations
 import numpy as np
 
 from bimanualshift.sim.task import COLORS, Keyframe, SimHandle, Task, register_task
-from bimanualshift.sim.tasks.bimanual.push_two_buttons import press_keyframes
 from bimanualshift.sim.tasks.objects import (
     BUTTON_PRESSED_AT,
     button_top,
     button_travel,
     button_xml,
     place_button,
+    press_keyframes,
     sample_separated,
 )
 
