@@ -6,6 +6,7 @@ import argparse
 import json
 import sys
 import time
+from collections.abc import Callable
 from dataclasses import fields
 from pathlib import Path
 
@@ -37,6 +38,16 @@ def _add_config_overrides(parser: argparse.ArgumentParser, config_cls: type, ski
             parser.add_argument(flag, type=json.loads, default=None, help=f"JSON object (default: {default})")
         else:
             parser.add_argument(flag, type=type(default), default=None, help=f"(default: {default})")
+
+
+def _add_config_command(sub: argparse._SubParsersAction, name: str, help_text: str, config_cls: type,
+                        func: Callable[[argparse.Namespace], None]) -> None:
+    """A sub-command configured by a dataclass: --config FILE.json, then one flag per field on top."""
+    p = sub.add_parser(name, help=help_text)
+    p.add_argument("--config", help=f"JSON file with {config_cls.__name__} fields, e.g. a run's saved config "
+                                    "(flags override it)")
+    _add_config_overrides(p, config_cls)
+    p.set_defaults(func=func)
 
 
 def _config_from_args(config_cls: type, args: argparse.Namespace):  # noqa: ANN202
@@ -171,22 +182,17 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--image-size", type=int, default=128, help="camera resolution (default: 128)")
     p.set_defaults(func=cmd_collect)
 
-    p = sub.add_parser("pretrain", help="pretrain a single-arm prior on single-arm demos only")
-    p.add_argument("--config", help="JSON file with PretrainConfig fields (flags override it)")
-    _add_config_overrides(p, PretrainConfig)
-    p.set_defaults(func=cmd_pretrain)
-
-    p = sub.add_parser("train", help="train the residual branch on bimanual demos (prior frozen)")
-    p.add_argument("--config", help="JSON file with TrainConfig fields, e.g. a run's train_config.json")
-    _add_config_overrides(p, TrainConfig)
-    p.set_defaults(func=cmd_train)
+    _add_config_command(sub, "pretrain", "pretrain a single-arm prior on single-arm demos only", PretrainConfig,
+                        cmd_pretrain)
+    _add_config_command(sub, "train", "train the residual branch on bimanual demos (prior frozen)", TrainConfig,
+                        cmd_train)
 
     p = sub.add_parser("eval", help="evaluate a method on held-out seeds")
     p.add_argument("--method", default="bimanualshift", choices=["bimanualshift", "leader_follower", "prior"],
                    help="bimanualshift (needs --checkpoint); leader_follower = the frozen prior driving each arm; "
                         "prior = the same, named for single-arm tasks (both need --prior)")
     p.add_argument("--checkpoint", help="BimanualShift checkpoint directory (from `train`)")
-    p.add_argument("--prior", help="prior checkpoint directory (for leader_follower)")
+    p.add_argument("--prior", help="prior checkpoint directory (for leader_follower and prior)")
     p.add_argument("--task", nargs="+", default=["push_two_buttons"], help="one or more task names")
     p.add_argument("--episodes", type=int, default=20, help="episodes per task")
     p.add_argument("--split", default="test", choices=["validation", "test"])
@@ -194,10 +200,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", help="write a result JSON here")
     p.set_defaults(func=cmd_eval)
 
-    p = sub.add_parser("demo", help="collect, (pre)train, train the residual, evaluate: the whole method")
-    p.add_argument("--config", help="JSON file with DemoConfig fields")
-    _add_config_overrides(p, DemoConfig)
-    p.set_defaults(func=cmd_demo)
+    _add_config_command(sub, "demo", "collect, (pre)train, train the residual, evaluate: the whole method",
+                        DemoConfig, cmd_demo)
 
     p = sub.add_parser("report", help="regenerate the README tables from the result files")
     p.add_argument("--readme", nargs="+", default=["README.md"], help="files with results blocks")
