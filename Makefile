@@ -8,7 +8,7 @@ export MUJOCO_GL ?= egl
 export PYOPENGL_PLATFORM ?= egl
 export HF_HUB_OFFLINE ?= 1
 
-.PHONY: install demo test lint benchmark clean
+.PHONY: install demo test lint clean
 
 $(BIN)/.installed: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -25,10 +25,7 @@ test: install lint
 	$(BIN)/python -m pytest -q
 
 lint: install
-	$(BIN)/ruff check src tests benchmarks
-
-benchmark: install
-	$(BIN)/python -m pytest -q -m benchmark benchmarks
+	$(BIN)/ruff check src tests
 
 clean:
 	rm -rf $(VENV) runs
