@@ -46,16 +46,10 @@ class FrozenPriorStage:
         frames = arm_frames(obs)
         text = self.text(obs.instruction)
         steps = {}
-        arms = obs.scene.arm_names
-        for i, arm in enumerate(arms):
+        for arm in obs.scene.arm_names:
             proprio = np.r_[per_arm[arm].proprio, obs.keyframe_index / self.max_keyframes].astype(np.float32)
-            other = np.zeros(8, np.float32)
-            if len(arms) > 1:
-                o = obs.proprio[1 - i]
-                opos, oquat = frames[arm].pose_to_arm(o[:3], o[3:7])
-                other = np.r_[opos, oquat, o[7]].astype(np.float32)
             out = self.prior.predict(torch.as_tensor(per_arm[arm].voxels)[None], torch.as_tensor(proprio)[None], text)
-            steps[arm] = ArmStep(frames[arm], proprio, other, out)
+            steps[arm] = ArmStep(frames[arm], proprio, per_arm[arm].other_proprio, out)
         return steps
 
 

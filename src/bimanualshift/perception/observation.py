@@ -21,6 +21,7 @@ DEFAULT_ARM_BOUNDS = (0.2, -0.45, -0.15, 0.9, 0.45, 0.35)
 class ArmObservation:
     voxels: np.ndarray  # (4, S, S, S) float32 occupancy + rgb, arm frame
     proprio: np.ndarray  # (8,) position, quaternion, gripper open in the arm frame
+    other_proprio: np.ndarray  # (8,) the other arm's proprio in this arm's frame; zeros for a single arm
 
 
 def world_point_cloud(obs: KeyframeObservation) -> tuple[np.ndarray, np.ndarray]:
@@ -51,9 +52,11 @@ class ArmObservationBuilder:
         valid = obs.depth > 0
         masks = self.projection.masks_2d(obs) if self.projection else None
         out = {}
+        n = len(obs.scene.arm_names)
         for i, (arm, frame) in enumerate(arm_frames(obs).items()):
             keep = valid & masks[arm] if masks is not None else valid
             pts = frame.points_to_arm(points[keep])
+            other = proprio_in_arm_frame(obs.proprio[1 - i], frame) if n == 2 else np.zeros(8, np.float32)
             out[arm] = ArmObservation(self.grid.voxelize(pts, colors[keep]),
-                                      proprio_in_arm_frame(obs.proprio[i], frame))
+                                      proprio_in_arm_frame(obs.proprio[i], frame), other)
         return out

@@ -47,12 +47,6 @@ def build_arm_samples(paths: list[Path], builder: ArmObservationBuilder, max_key
                 frame = ArmFrame(tuple(episode.arm_bases[arm]))
                 act = episode["actions"][k, i]
                 pos, quat = frame.pose_to_arm(act[:3], act[3:7])
-                others = [j for j in range(len(episode.arm_names)) if j != i]
-                other = np.zeros(8, np.float32)
-                if others:
-                    o = episode["proprio"][k, others[0]]
-                    opos, oquat = frame.pose_to_arm(o[:3], o[3:7])
-                    other = np.r_[opos, oquat, o[7]].astype(np.float32)
                 rows["voxels"].append(per_arm[arm].voxels.astype(np.float16))
                 rows["proprio"].append(np.r_[per_arm[arm].proprio, k / max_keyframes].astype(np.float32))
                 rows["instructions"].append(episode.instruction)
@@ -63,7 +57,7 @@ def build_arm_samples(paths: list[Path], builder: ArmObservationBuilder, max_key
                 rows["episode"].append(e)
                 rows["keyframe"].append(k)
                 rows["arm"].append(arm)
-                rows["other_proprio"].append(other)
+                rows["other_proprio"].append(per_arm[arm].other_proprio)
     return ArmSamples(**{k: (v if k in ("instructions", "arm") else np.asarray(v)) for k, v in rows.items()})
 
 
