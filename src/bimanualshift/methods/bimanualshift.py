@@ -14,16 +14,11 @@ from safetensors.torch import load_file, save_file
 from bimanualshift.data.frames import KeyframeObservation
 from bimanualshift.encoders.text import TextEncoder
 from bimanualshift.geometry.frames import compose_rotation
-from bimanualshift.methods.stages import ArmStep, FrozenPriorStage, world_action
+from bimanualshift.methods.stages import FrozenPriorStage, world_action
 from bimanualshift.priors.base import UnimanualPrior
 from bimanualshift.residual.manager import ResidualConfig, ResidualPolicy, manager_inputs
 from bimanualshift.residual.skills import SkillBasis
 from bimanualshift.utils.io import atomic_write_json, atomic_writer
-
-
-def base_action_vector(step: ArmStep) -> np.ndarray:
-    p = step.prior
-    return np.r_[p.position[0].numpy(), p.quat[0].numpy(), float(p.gripper_open[0])].astype(np.float32)
 
 
 class BimanualShift:
@@ -46,7 +41,7 @@ class BimanualShift:
             s = steps[arm]
             inputs = manager_inputs(
                 s.prior.features, torch.as_tensor(s.proprio)[None], torch.as_tensor(s.other_proprio)[None], text,
-                torch.as_tensor(base_action_vector(s))[None], torch.tensor([i]), self.residual.config.num_arms,
+                s.prior.base_action(), torch.tensor([i]), self.residual.config.num_arms,
             )
             out = self.residual(inputs)
             position = s.prior.position[0].numpy() + out["translation"][0].numpy()

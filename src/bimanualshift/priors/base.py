@@ -28,6 +28,10 @@ class PriorOutput:
     ignore_collisions: torch.Tensor  # (B,) probability
     features: torch.Tensor  # (B, F) visual features for the residual Manager
 
+    def base_action(self) -> torch.Tensor:
+        """(B, 8) position, quaternion and gripper: the prior's own action as the Manager sees it."""
+        return torch.cat([self.position, self.quat, self.gripper_open[:, None]], dim=-1)
+
 
 @dataclass
 class PriorConfig:

@@ -92,7 +92,7 @@ def residual_data(paths: list[Path], stage: FrozenPriorStage, text_encoder: Text
                 sl = slice(start, start + 32)
                 out = stage.prior.predict(voxels[sl], proprio[sl], text[sl])
                 features.append(out.features)
-                base.append(torch.cat([out.position, out.quat, out.gripper_open[:, None]], dim=-1))
+                base.append(out.base_action())
         features_t, base_t = torch.cat(features), torch.cat(base)
         inputs = manager_inputs(features_t, proprio, other, text, base_t, arm_index, len(ARM_ORDER))
         translation = torch.as_tensor(samples.action_pos + offsets) - base_t[:, :3]
