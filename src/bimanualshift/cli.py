@@ -117,8 +117,6 @@ def cmd_eval(args: argparse.Namespace) -> None:
     from bimanualshift.evaluation.rollout import evaluate
     from bimanualshift.methods.bimanualshift import load_bimanualshift
     from bimanualshift.methods.leader_follower import FrozenPriorPerArm
-    from bimanualshift.methods.stages import FrozenPriorStage
-    from bimanualshift.priors.base import UnimanualPrior
     from bimanualshift.sim.env import ManipulationEnv
 
     started = time.time()
@@ -130,8 +128,7 @@ def cmd_eval(args: argparse.Namespace) -> None:
     else:
         if not args.prior:
             sys.exit(f"error: --prior DIR is required for --method {args.method}")
-        policy = FrozenPriorPerArm(FrozenPriorStage(UnimanualPrior.from_pretrained(args.prior), text_encoder,
-                                                    use_projection=False), name=args.method)
+        policy = FrozenPriorPerArm.from_pretrained(args.prior, text_encoder, name=args.method)
     seeds = split_seeds(args.split, args.episodes)
     records = []
     for task in args.task:

@@ -24,8 +24,6 @@ from bimanualshift.evaluation.report import print_success_table, success_rows, w
 from bimanualshift.evaluation.rollout import evaluate
 from bimanualshift.methods.bimanualshift import load_bimanualshift
 from bimanualshift.methods.leader_follower import FrozenPriorPerArm
-from bimanualshift.methods.stages import FrozenPriorStage
-from bimanualshift.priors.base import UnimanualPrior
 from bimanualshift.sim.env import ManipulationEnv
 from bimanualshift.training.pretrain import PretrainConfig, pretrain
 from bimanualshift.training.residual import TrainConfig, train_residual
@@ -87,8 +85,7 @@ def run_demo(cfg: DemoConfig) -> dict:
     print(f"[demo] 4/4 evaluating on {cfg.test_episodes} held-out test seeds per method")
     text_encoder = default_text_encoder()
     method = load_bimanualshift(best, text_encoder)
-    baseline = FrozenPriorPerArm(FrozenPriorStage(UnimanualPrior.from_pretrained(prior_path), text_encoder,
-                                                  use_projection=False))
+    baseline = FrozenPriorPerArm.from_pretrained(prior_path, text_encoder)
     env = ManipulationEnv(cfg.task)
     records = []
     results = Path(cfg.results)

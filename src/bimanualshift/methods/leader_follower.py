@@ -9,13 +9,21 @@ from __future__ import annotations
 import numpy as np
 
 from bimanualshift.data.frames import KeyframeObservation
+from bimanualshift.encoders.text import TextEncoder
 from bimanualshift.methods.stages import FrozenPriorStage, world_action
+from bimanualshift.priors.base import UnimanualPrior
 
 
 class FrozenPriorPerArm:
     def __init__(self, stage: FrozenPriorStage, name: str = "leader_follower") -> None:
         self.stage = stage
         self.name = name
+
+    @staticmethod
+    def from_pretrained(prior: str, text_encoder: TextEncoder, name: str = "leader_follower") -> FrozenPriorPerArm:
+        """The baseline sees the global scene: no arm-conditioned projection, no residual."""
+        return FrozenPriorPerArm(FrozenPriorStage(UnimanualPrior.from_pretrained(prior), text_encoder,
+                                                  use_projection=False), name)
 
     def reset(self) -> None:
         pass
