@@ -44,6 +44,7 @@ class ManipulationEnv(gym.Env):
         self.model: mujoco.MjModel = self.scene.sim.model._model
         self.data: mujoco.MjData = self.scene.sim.data._data
         self.sim = SimHandle(self.model, self.data, TABLE_TOP_Z)
+        self.task.after_compile(self.model)
         self.camera_names = camera_names or default_camera_names(self.arm_names)
         self.cameras = CameraRig(self.model, self.camera_names, wrist_camera_names(self.arm_names),
                                  image_size, image_size)
@@ -209,6 +210,8 @@ class ManipulationEnv(gym.Env):
             rot_steps[arm] = 1.0 if angle < 1e-6 else min(1.0, max_step_rad / angle)
             fractions[arm] = 0.0
         reached = False
+        still_steps = 0  # control steps in a row in which no hand moved (blocked by contact: a squeeze, a push)
+        previous = np.stack([self.eef_pose(i)[0] for i in range(len(self.arm_names))])
         for _ in range(self.max_steps_per_keyframe):
             rotations = {}
             for arm in self.arm_names:
@@ -220,6 +223,13 @@ class ManipulationEnv(gym.Env):
             self._control_step(self._robot_command(cmd_pos, rotations))
             reached = all(self._pose_error(i, targets[arm]) for i, arm in enumerate(self.arm_names))
             if reached:
+                break
+            current = np.stack([self.eef_pose(i)[0] for i in range(len(self.arm_names))])
+            commanded_all = all(np.allclose(cmd_pos[a], targets[a].position) and fractions[a] >= 1.0
+                                for a in self.arm_names)
+            still_steps = still_steps + 1 if commanded_all and np.abs(current - previous).max() < 5e-4 else 0
+            previous = current
+            if still_steps >= 6:
                 break
         changed = [arm for arm in self.arm_names if targets[arm].gripper_open != self.gripper_open[arm]]
         if changed:

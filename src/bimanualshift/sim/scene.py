@@ -84,6 +84,10 @@ class RobosuiteScene(ManipulationEnv):
         self.model = ManipulationTask(mujoco_arena=arena, mujoco_robots=[r.robot_model for r in self.robots])
         for name, (pos, target) in STATIC_CAMERAS.items():
             self.model.worldbody.append(camera_xml(name, pos, target))
+        if self.task.plugins:
+            extension = ET.SubElement(self.model.root, "extension")
+            for plugin in self.task.plugins:
+                ET.SubElement(extension, "plugin", plugin=plugin)
         objects = ET.fromstring(f"<root>{self.task.scene_xml()}</root>")
         for element in objects:
             self.model.worldbody.append(element)

@@ -41,7 +41,7 @@ class SceneInstances:
             elif root == "table":
                 name, cls = "table", "table"
             else:
-                name, cls = root, task.instance_class(root)
+                name, cls = task.instance_name(root), task.instance_class(root)
             if cls not in classes:
                 classes.append(cls)
             root_instance[body] = len(names)

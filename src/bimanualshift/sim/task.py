@@ -15,23 +15,28 @@ from typing import Any, ClassVar, TypeVar
 import mujoco
 import numpy as np
 
+from bimanualshift.sim.colours import RGB, TRAIN_COLOURS, UNSEEN_COLOURS
+from bimanualshift.sim.perturbations import Perturbations
+
 ARM_NAMES_BIMANUAL = ("left", "right")
 ARM_NAMES_UNIMANUAL = ("right",)
 
-# Colours used by tasks: name -> RGB. Training draws from these; perturbation studies may add unseen ones.
-COLORS: dict[str, tuple[float, float, float]] = {
-    "red": (0.85, 0.1, 0.1),
-    "green": (0.1, 0.7, 0.15),
-    "blue": (0.1, 0.25, 0.9),
-    "yellow": (0.95, 0.85, 0.1),
-    "purple": (0.55, 0.15, 0.7),
-    "orange": (0.95, 0.5, 0.05),
-    "cyan": (0.1, 0.8, 0.85),
-    "white": (0.95, 0.95, 0.95),
-}
-
 # The gripper pointing straight down as in the Panda's initial pose ((x, y, z, w) quaternion).
+# In this pose the fingers open along the world y axis and the hand is thin along x.
 DOWN_QUAT = np.array([np.sqrt(0.5), np.sqrt(0.5), 0.0, 0.0])
+
+
+def down_quat(yaw: float) -> np.ndarray:
+    """The gripper pointing down, turned by ``yaw`` about the vertical ((x, y, z, w) quaternion).
+
+    A parallel gripper looks the same every half turn, so the yaw is wrapped into [-pi/2, pi/2): the
+    smallest wrist rotation from the initial pose, which keeps joint 7 away from its limits.
+    """
+    from scipy.spatial.transform import Rotation
+
+    yaw = (yaw + np.pi / 2) % np.pi - np.pi / 2
+    q = (Rotation.from_euler("z", yaw) * Rotation.from_quat(DOWN_QUAT)).as_quat()
+    return q if q[3] >= 0 else -q
 
 
 @dataclass(frozen=True)
@@ -108,10 +113,21 @@ class Task(ABC):
     name: ClassVar[str]
     bimanual: ClassVar[bool]
     max_keyframes: ClassVar[int] = 25
+    # MuJoCo engine plugins the scene needs (e.g. "mujoco.elasticity.cable" for a rope).
+    plugins: ClassVar[tuple[str, ...]] = ()
 
-    def __init__(self) -> None:
+    def __init__(self, perturbations: Perturbations | None = None) -> None:
+        self.perturbations = perturbations or Perturbations()
         # JSON-able description of the current episode (colours, targets, ...): part of the env state.
         self.episode: dict[str, Any] = {}
+
+    @property
+    def palette(self) -> dict[str, RGB]:
+        """The colours objects are drawn from: the training colours unless a study asks for unseen ones."""
+        return UNSEEN_COLOURS if self.perturbations.unseen_colours else TRAIN_COLOURS
+
+    def pick_colours(self, rng: np.random.Generator, n: int) -> list[str]:
+        return [str(c) for c in rng.choice(list(self.palette), size=n, replace=False)]
 
     @property
     def arm_names(self) -> tuple[str, ...]:
@@ -139,8 +155,15 @@ class Task(ABC):
     @abstractmethod
     def evaluate_success(self, sim: SimHandle) -> bool: ...
 
+    def after_compile(self, model: mujoco.MjModel) -> None:  # noqa: B027 - optional hook
+        """Adjust the compiled model once (e.g. make generated geoms visible to the cameras)."""
+
     def on_control_step(self, sim: SimHandle) -> None:  # noqa: B027 - optional hook
         """Called after every control step; tasks latch events (a button pressed once stays pressed)."""
+
+    def instance_name(self, root_body: str) -> str:
+        """Instance name of one of this task's root bodies (generated bodies may need a shorter name)."""
+        return root_body
 
     def instance_class(self, instance: str) -> str:
         """Semantic class of one of this task's root bodies (e.g. ``button_1`` -> ``button``)."""
@@ -162,12 +185,12 @@ def register_task(name: str) -> Callable[[T], T]:
     return wrap
 
 
-def make_task(name: str) -> Task:
+def make_task(name: str, perturbations: Perturbations | None = None) -> Task:
     from bimanualshift.sim import tasks  # noqa: F401 - importing registers every task
 
     if name not in TASKS:
         raise KeyError(f"unknown task {name!r}; registered tasks: {', '.join(sorted(TASKS))}")
-    return TASKS[name]()
+    return TASKS[name](perturbations)
 
 
 def task_names(bimanual: bool | None = None) -> list[str]:

@@ -4,16 +4,16 @@ from __future__ import annotations
 
 import numpy as np
 
-from bimanualshift.sim.task import COLORS, Keyframe, SimHandle, Task, register_task
-from bimanualshift.sim.tasks.objects import (
+from bimanualshift.sim.props.buttons import (
     BUTTON_PRESSED_AT,
     button_top,
     button_travel,
     button_xml,
     place_button,
     press_keyframes,
-    sample_separated,
 )
+from bimanualshift.sim.props.placement import sample_separated
+from bimanualshift.sim.task import Keyframe, SimHandle, Task, register_task
 
 BUTTONS = ("button_0", "button_1", "button_2")
 # Reachable regions ((x range), (y range)): left side, right side, anywhere (the third button).
@@ -30,11 +30,11 @@ class PushTwoButtons(Task):
         return "".join(button_xml(b) for b in BUTTONS)
 
     def initialize_episode(self, sim: SimHandle, rng: np.random.Generator) -> None:
-        colours = [str(c) for c in rng.choice(list(COLORS), size=3, replace=False)]
+        colours = self.pick_colours(rng, 3)
         xy = sample_separated(rng, [LEFT_REGION, RIGHT_REGION, ANY_REGION], min_distance=0.13)
         for name, colour, p in zip(BUTTONS, colours, xy):
             place_button(sim, name, p)
-            sim.set_rgb(f"{name}_cap", COLORS[colour])
+            sim.set_rgb(f"{name}_cap", self.palette[colour])
         # button_0 is on the left side and button_1 on the right: each arm presses the one on its side.
         named = [0, 1] if rng.random() < 0.5 else [1, 0]  # the order the instruction names them in
         self.episode = {

@@ -6,9 +6,10 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from bimanualshift.geometry.frames import canonical_quat
+from bimanualshift.sim.props.blocks import CUBE_HALF, cube_xml
+from bimanualshift.sim.props.placement import sample_separated
 from bimanualshift.sim.scene import TABLE_TOP_Z
-from bimanualshift.sim.task import COLORS, DOWN_QUAT, ArmAction, Keyframe, SimHandle, Task, register_task
-from bimanualshift.sim.tasks.objects import CUBE_HALF, cube_xml, sample_separated
+from bimanualshift.sim.task import DOWN_QUAT, ArmAction, Keyframe, SimHandle, Task, register_task
 
 CUBES = ("cube_0", "cube_1", "cube_2")
 REGION = ((-0.10, 0.15), (-0.30, 0.30))
@@ -24,13 +25,13 @@ class PickCube(Task):
 
     def initialize_episode(self, sim: SimHandle, rng: np.random.Generator) -> None:
         n = int(rng.integers(1, len(CUBES) + 1))
-        colours = [str(c) for c in rng.choice(list(COLORS), size=len(CUBES), replace=False)]
+        colours = self.pick_colours(rng, len(CUBES))
         xy = sample_separated(rng, [REGION] * n, min_distance=0.12)
         yaws = rng.uniform(-np.pi / 4, np.pi / 4, size=len(CUBES))
         for i, name in enumerate(CUBES):
             p = np.r_[xy[i], TABLE_TOP_Z + CUBE_HALF] if i < n else np.array([1.5, 0.2 * i, 0.1])
             sim.set_free_pose(f"{name}_joint", p, Rotation.from_euler("z", yaws[i]).as_quat())
-            sim.set_rgb(f"{name}_geom", COLORS[colours[i]])
+            sim.set_rgb(f"{name}_geom", self.palette[colours[i]])
         self.episode = {"colours": colours, "count": n, "target": int(rng.integers(n))}
 
     def instruction(self) -> str:

@@ -4,16 +4,16 @@ from __future__ import annotations
 
 import numpy as np
 
-from bimanualshift.sim.task import COLORS, Keyframe, SimHandle, Task, register_task
-from bimanualshift.sim.tasks.objects import (
+from bimanualshift.sim.props.buttons import (
     BUTTON_PRESSED_AT,
     button_top,
     button_travel,
     button_xml,
     place_button,
     press_keyframes,
-    sample_separated,
 )
+from bimanualshift.sim.props.placement import sample_separated
+from bimanualshift.sim.task import Keyframe, SimHandle, Task, register_task
 
 BUTTONS = ("button_0", "button_1", "button_2")
 REGION = ((-0.10, 0.15), (-0.32, 0.32))
@@ -29,11 +29,11 @@ class PushButton(Task):
 
     def initialize_episode(self, sim: SimHandle, rng: np.random.Generator) -> None:
         n = int(rng.integers(1, len(BUTTONS) + 1))
-        colours = [str(c) for c in rng.choice(list(COLORS), size=len(BUTTONS), replace=False)]
+        colours = self.pick_colours(rng, len(BUTTONS))
         xy = sample_separated(rng, [REGION] * n, min_distance=0.13)
         for i, name in enumerate(BUTTONS):
             place_button(sim, name, xy[i] if i < n else PARKED + [0.0, 0.2 * i])
-            sim.set_rgb(f"{name}_cap", COLORS[colours[i]])
+            sim.set_rgb(f"{name}_cap", self.palette[colours[i]])
         self.episode = {"colours": colours, "count": n, "target": int(rng.integers(n)), "pressed": False}
 
     def instruction(self) -> str:

@@ -1,8 +1,4 @@
-"""MJCF builders, placement helpers and expert keyframe helpers shared by tasks.
-
-robosuite computes inertia from geom group 0 only, while cameras render group 1: object geoms are group 1
-(visible and colliding) and every moving body states its inertia explicitly.
-"""
+"""Push buttons: a housing and a spring-loaded cap on a slide joint, and the expert's press keyframes."""
 
 from __future__ import annotations
 
@@ -15,7 +11,6 @@ BUTTON_RADIUS = 0.035
 BUTTON_TRAVEL = 0.015
 BUTTON_PRESSED_AT = 0.008  # joint travel (m) that counts as a press
 BUTTON_TOP = 0.02 + 0.024  # cap top above the table when released
-CUBE_HALF = 0.022
 
 
 def button_xml(name: str) -> str:
@@ -34,17 +29,6 @@ def button_xml(name: str) -> str:
 </body>"""
 
 
-def cube_xml(name: str) -> str:
-    h = CUBE_HALF
-    return f"""
-<body name="{name}" pos="0 0 {TABLE_TOP_Z + h}">
-  <freejoint name="{name}_joint"/>
-  <inertial pos="0 0 0" mass="0.05" diaginertia="1.6e-5 1.6e-5 1.6e-5"/>
-  <geom name="{name}_geom" type="box" size="{h} {h} {h}" rgba="1 0 0 1" group="1"
-        friction="1.5 0.005 0.0001" solref="0.01 1"/>
-</body>"""
-
-
 def place_button(sim: SimHandle, name: str, xy: np.ndarray) -> None:
     sim.model.body_pos[sim.body_id(name)] = (xy[0], xy[1], TABLE_TOP_Z)
     sim.joint_qpos(f"{name}_joint")[:] = 0.0
@@ -59,17 +43,6 @@ def button_top(sim: SimHandle, name: str) -> np.ndarray:
     pos = sim.model.body_pos[sim.body_id(name)].copy()
     pos[2] = TABLE_TOP_Z + BUTTON_TOP
     return pos
-
-
-def sample_separated(rng: np.random.Generator, regions: list[tuple[tuple[float, float], tuple[float, float]]],
-                     min_distance: float, max_tries: int = 1000) -> np.ndarray:
-    """One xy point per region ((xmin, xmax), (ymin, ymax)), all at least ``min_distance`` apart."""
-    for _ in range(max_tries):
-        pts = np.array([[rng.uniform(*xr), rng.uniform(*yr)] for xr, yr in regions])
-        d = np.linalg.norm(pts[:, None] - pts[None], axis=-1) + np.eye(len(pts)) * 1e9
-        if d.min() >= min_distance:
-            return pts
-    raise RuntimeError(f"could not place {len(regions)} objects {min_distance} m apart in {regions}")
 
 
 def press_keyframes(tops: dict[str, np.ndarray]) -> list[Keyframe]:

@@ -1,0 +1,73 @@
+"""Switches for generalisation studies: every one is off in training data.
+
+An environment is built with one ``Perturbations``; what it changes:
+
+* ``unseen_colours`` — tasks draw object colours from ``UNSEEN_COLOURS`` instead of the 18 training colours.
+* ``unseen_shapes`` — tasks build their objects with another shape (square caps, cubic ball, square plate...).
+* ``lighting`` — light colour and intensity changed by this fraction (0.5 = dimmer, warm light).
+* ``table_texture`` — a checkerboard table top and a dark floor instead of the plain ones.
+* ``glare`` — a strong specular light behind the front camera and shiny objects.
+* ``camera_shift_m`` / ``camera_rotate_deg`` — every static camera moved and turned by up to this much
+  (seeded by ``seed``); the observation's extrinsics describe the moved cameras.
+* ``swap_sides`` — the task layout mirrored left to right (y -> -y), so each arm faces the other's job.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, fields
+from typing import Any
+
+
+@dataclass(frozen=True)
+class Perturbations:
+    unseen_colours: bool = False
+    unseen_shapes: bool = False
+    lighting: float = 0.0
+    table_texture: bool = False
+    glare: bool = False
+    camera_shift_m: float = 0.0
+    camera_rotate_deg: float = 0.0
+    swap_sides: bool = False
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        if not 0.0 <= self.lighting <= 1.0:
+            raise ValueError(f"lighting must be a fraction in [0, 1], got {self.lighting}")
+        if not 0.0 <= self.camera_shift_m <= 0.3:
+            raise ValueError(f"camera_shift_m must be in [0, 0.3] metres, got {self.camera_shift_m}")
+        if not 0.0 <= self.camera_rotate_deg <= 30.0:
+            raise ValueError(f"camera_rotate_deg must be in [0, 30] degrees, got {self.camera_rotate_deg}")
+
+    @property
+    def any(self) -> bool:
+        return self != Perturbations(seed=self.seed)
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+    @staticmethod
+    def from_dict(values: dict[str, Any]) -> Perturbations:
+        known = {f.name for f in fields(Perturbations)}
+        unknown = set(values) - known
+        if unknown:
+            raise ValueError(f"unknown perturbation(s) {sorted(unknown)}; known: {sorted(known)}")
+        return Perturbations(**values)
+
+
+# Named presets for the generalisation study and the CLI's --perturb option.
+PRESETS: dict[str, Perturbations] = {
+    "none": Perturbations(),
+    "unseen_colours": Perturbations(unseen_colours=True),
+    "unseen_shapes": Perturbations(unseen_shapes=True),
+    "lighting": Perturbations(lighting=0.6),
+    "table_texture": Perturbations(table_texture=True),
+    "glare": Perturbations(glare=True),
+    "camera_pose": Perturbations(camera_shift_m=0.05, camera_rotate_deg=5.0),
+    "swap_sides": Perturbations(swap_sides=True),
+}
+
+
+def preset(name: str) -> Perturbations:
+    if name not in PRESETS:
+        raise KeyError(f"unknown perturbation preset {name!r}; choose from {', '.join(PRESETS)}")
+    return PRESETS[name]

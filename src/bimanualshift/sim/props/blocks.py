@@ -1,0 +1,18 @@
+"""Free-standing cubes and blocks."""
+
+from __future__ import annotations
+
+from bimanualshift.sim.scene import TABLE_TOP_Z
+
+CUBE_HALF = 0.022
+
+
+def cube_xml(name: str) -> str:
+    h = CUBE_HALF
+    return f"""
+<body name="{name}" pos="0 0 {TABLE_TOP_Z + h}">
+  <freejoint name="{name}_joint"/>
+  <inertial pos="0 0 0" mass="0.05" diaginertia="1.6e-5 1.6e-5 1.6e-5"/>
+  <geom name="{name}_geom" type="box" size="{h} {h} {h}" rgba="1 0 0 1" group="1"
+        friction="1.5 0.005 0.0001" solref="0.01 1"/>
+</body>"""

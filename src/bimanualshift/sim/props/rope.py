@@ -1,0 +1,88 @@
+"""A deformable rope: MuJoCo's cable (a chain of capsules with the elasticity plugin) and target markers.
+
+The cable's first body carries a free joint (``initial="free"``); the others hang from it through ball
+joints, so an episode shapes the rope by setting the free pose and the ball joints' bends.
+"""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from bimanualshift.sim.scene import TABLE_TOP_Z
+from bimanualshift.sim.task import SimHandle
+
+CABLE_PLUGIN = "mujoco.elasticity.cable"
+ROPE_RADIUS = 0.01
+ROPE_SEGMENTS = 25
+ROPE_LENGTH = 0.5
+SEGMENT = ROPE_LENGTH / ROPE_SEGMENTS
+
+
+def rope_xml(prefix: str) -> str:
+    # Geoms stay in group 0 here so the compiler counts their mass; ``show_rope`` moves them to group 1.
+    return f"""
+<composite prefix="{prefix}_" type="cable" curve="s" count="{ROPE_SEGMENTS + 1} 1 1" size="{ROPE_LENGTH}"
+           offset="0 0 {TABLE_TOP_Z + ROPE_RADIUS}" initial="free">
+  <plugin plugin="{CABLE_PLUGIN}">
+    <config key="twist" value="2e4"/>
+    <config key="bend" value="1e4"/>
+    <config key="vmax" value="0"/>
+  </plugin>
+  <joint kind="main" damping="0.02"/>
+  <geom type="capsule" size="{ROPE_RADIUS}" rgba="0.8 0.2 0.1 1" condim="3" density="300"
+        friction="1.2 0.005 0.0001"/>
+</composite>"""
+
+
+def marker_xml(name: str, radius: float) -> str:
+    """A flat disc painted on the table: seen by cameras, touched by nothing."""
+    return f"""
+<body name="{name}" pos="0 0 {TABLE_TOP_Z}">
+  <geom name="{name}_geom" type="cylinder" size="{radius} 0.0008" pos="0 0 0.0008" contype="0" conaffinity="0"
+        group="1" rgba="0.2 0.8 0.2 1"/>
+</body>"""
+
+
+def rope_bodies(prefix: str) -> list[str]:
+    return [f"{prefix}_B_first", *(f"{prefix}_B_{i}" for i in range(1, ROPE_SEGMENTS - 1)), f"{prefix}_B_last"]
+
+
+def show_rope(model: mujoco.MjModel, prefix: str) -> None:
+    for name in rope_bodies(prefix):
+        body = model.body(name).id
+        for g in range(model.body_geomadr[body], model.body_geomadr[body] + model.body_geomnum[body]):
+            model.geom_group[g] = 1
+
+
+def shape_rope(sim: SimHandle, prefix: str, start: np.ndarray, heading: float, bends: np.ndarray) -> None:
+    """Lay the rope flat from ``start`` (xy) at ``heading`` (rad), turning by ``bends[i]`` at joint i."""
+    sim.set_free_pose(f"{prefix}_J_first", np.r_[start, TABLE_TOP_Z + ROPE_RADIUS],
+                      Rotation.from_euler("z", heading).as_quat())
+    for i, bend in enumerate(bends, start=1):
+        joint = f"{prefix}_J_{i}" if i < ROPE_SEGMENTS - 1 else f"{prefix}_J_last"
+        sim.joint_qpos(joint)[:] = np.roll(Rotation.from_euler("z", bend).as_quat(), 1)
+        sim.joint_qvel(joint)[:] = 0.0
+
+
+def flat_chain(heading: float, bends: np.ndarray) -> np.ndarray:
+    """xy of every segment's start (and the rope's far end) for a flat rope starting at the origin."""
+    angles = heading + np.r_[0.0, np.cumsum(bends)]
+    steps = SEGMENT * np.stack([np.cos(angles), np.sin(angles)], axis=1)
+    return np.vstack([[0.0, 0.0], np.cumsum(steps, axis=0)])
+
+
+def rope_end_grasp(sim: SimHandle, prefix: str, head: bool) -> tuple[np.ndarray, float]:
+    """Where to pinch the rope near one end (the end segment's middle) and the rope's direction there."""
+    body = sim.body_id(rope_bodies(prefix)[0 if head else -1])
+    axis = sim.data.xmat[body].reshape(3, 3)[:, 0]
+    point = sim.data.xpos[body] + axis * SEGMENT / 2
+    return point, float(np.arctan2(axis[1], axis[0]))
+
+
+def rope_ends(sim: SimHandle, prefix: str) -> tuple[np.ndarray, np.ndarray]:
+    first = sim.body_id(rope_bodies(prefix)[0])
+    last = sim.body_id(rope_bodies(prefix)[-1])
+    tail = sim.data.xpos[last] + sim.data.xmat[last].reshape(3, 3)[:, 0] * SEGMENT
+    return sim.data.xpos[first].copy(), tail

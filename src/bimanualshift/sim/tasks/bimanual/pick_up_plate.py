@@ -1,0 +1,54 @@
+"""Pick up a plate: a wide plate lying flat; each arm pinches the rim on its side and both lift it level."""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from bimanualshift.sim.props.plate import RIM_HEIGHT, plate_xml
+from bimanualshift.sim.scene import TABLE_TOP_Z
+from bimanualshift.sim.task import DOWN_QUAT, ArmAction, Keyframe, SimHandle, Task, register_task
+
+RADIUS = 0.12
+REGION = ((-0.06, 0.12), (-0.08, 0.08))
+LIFTED_BY = 0.08
+GRASP_HEIGHT = RIM_HEIGHT - 0.008  # gripper site height above the table: pads level with the rim
+PARTS = ["plate_foot", "plate_geom", *(f"plate_rim{i}" for i in range(20))]
+
+
+@register_task("pick_up_plate")
+class PickUpPlate(Task):
+    bimanual = True
+
+    def scene_xml(self) -> str:
+        return plate_xml("plate", RADIUS, square=self.perturbations.unseen_shapes, mass=0.25)
+
+    def initialize_episode(self, sim: SimHandle, rng: np.random.Generator) -> None:
+        xy = np.array([rng.uniform(*REGION[0]), rng.uniform(*REGION[1])])
+        yaw = rng.uniform(-np.pi / 8, np.pi / 8)
+        sim.set_free_pose("plate_joint", np.r_[xy, TABLE_TOP_Z], Rotation.from_euler("z", yaw).as_quat())
+        colour = self.pick_colours(rng, 1)[0]
+        for g in range(sim.model.ngeom):
+            if sim.model.geom(g).name.startswith("plate_"):
+                sim.model.geom_rgba[g, :3] = self.palette[colour]
+        self.episode = {"colour": colour}
+
+    def instruction(self) -> str:
+        return "pick up the plate"
+
+    def goal_nouns(self) -> list[str]:
+        return ["plate"]
+
+    def evaluate_success(self, sim: SimHandle) -> bool:
+        return bool(sim.body_pos("plate")[2] > TABLE_TOP_Z + LIFTED_BY)
+
+    def expert_keyframes(self, sim: SimHandle) -> list[Keyframe]:
+        centre = sim.body_pos("plate")
+        centre[2] = TABLE_TOP_Z
+        side = {"left": 1.0, "right": -1.0}  # each arm takes the rim on its own side
+
+        def at(dz: float, gripper: float) -> Keyframe:
+            return {arm: ArmAction(centre + [0.0, s * RADIUS, GRASP_HEIGHT + dz], DOWN_QUAT, gripper, 1.0)
+                    for arm, s in side.items()}
+
+        return [at(0.10, 1.0), at(0.0, 1.0), at(0.0, 0.0), at(LIFTED_BY + 0.06, 0.0)]
