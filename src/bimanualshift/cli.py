@@ -96,6 +96,66 @@ def cmd_collect(args: argparse.Namespace) -> None:
               f"({s['skipped']} already present) under {Path(args.out) / task}")
 
 
+def cmd_experts(args: argparse.Namespace) -> None:
+    from bimanualshift.data.seeds import split_seeds
+    from bimanualshift.evaluation.report import write_result
+    from bimanualshift.evaluation.stats import wilson_interval
+    from bimanualshift.sim.expert_check import check_experts
+    from bimanualshift.sim.task import TASKS, task_names
+
+    known = task_names()
+    tasks = known if args.task == ["all"] else args.task
+    bad = [t for t in tasks if t not in known]
+    if bad:
+        sys.exit(f"error: unknown task(s) {bad}; choose from {known} or 'all'")
+    started = time.time()
+    seeds = split_seeds("test", args.episodes)
+    episodes = check_experts(tasks, seeds, workers=args.workers)
+    rows = []
+    for task in tasks:
+        mine = [e for e in episodes if e.task == task]
+        k = sum(e.success for e in mine)
+        lo, hi = wilson_interval(k, len(mine))
+        rows.append({"task": task, "bimanual": TASKS[task].bimanual, "success": round(k / len(mine), 4),
+                     "episodes": len(mine), "ci95": [round(lo, 4), round(hi, 4)],
+                     "mean_wall_time_s": round(float(sum(e.wall_time_s for e in mine) / len(mine)), 2),
+                     "mean_keyframes": round(float(sum(e.keyframes for e in mine) / len(mine)), 2),
+                     "failed_seeds": [e.seed for e in mine if not e.success]})
+        print(f"{task:24s} {100 * k / len(mine):5.1f} %  ({k}/{len(mine)})  "
+              f"{rows[-1]['mean_wall_time_s']:.1f} s/episode  {rows[-1]['mean_keyframes']:.1f} keyframes")
+    if args.out:
+        write_result(args.out, "bimanualshift " + " ".join(sys.argv[1:]), {"test": seeds}, started, rows,
+                     notes="scripted experts, no rendering; wall time per episode with "
+                           f"{args.workers} worker process(es) on this machine")
+        print(f"wrote {args.out}")
+
+
+def cmd_snapshot(args: argparse.Namespace) -> None:
+    import imageio.v3 as iio
+    import numpy as np
+
+    from bimanualshift.sim.env import ManipulationEnv
+    from bimanualshift.sim.perturbations import preset
+    from bimanualshift.sim.task import task_names
+
+    known = task_names()
+    tasks = known if args.task == ["all"] else args.task
+    bad = [t for t in tasks if t not in known]
+    if bad:
+        sys.exit(f"error: unknown task(s) {bad}; choose from {known} or 'all'")
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    for task in tasks:
+        env = ManipulationEnv(task, image_size=args.image_size, perturbations=preset(args.perturb))
+        env.reset(seed=args.seed, options={"render": False})
+        views = env.cameras.render(env.data, depth_and_segmentation=False)
+        image = np.concatenate([views[c].rgb for c in args.cameras], axis=1)
+        path = out / f"{task}{'' if args.perturb == 'none' else '_' + args.perturb}.png"
+        iio.imwrite(path, image)
+        print(f"{path}: {env.task.instruction()!r}")
+        env.close()
+
+
 def cmd_pretrain(args: argparse.Namespace) -> None:
     from bimanualshift.training.pretrain import PretrainConfig, pretrain
 
@@ -178,6 +238,22 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--workers", type=int, default=1, help="parallel worker processes (default: 1)")
     p.add_argument("--image-size", type=int, default=128, help="camera resolution (default: 128)")
     p.set_defaults(func=cmd_collect)
+
+    p = sub.add_parser("experts", help="measure the scripted experts' success rate on test seeds (no rendering)")
+    p.add_argument("--task", nargs="+", default=["all"], help="task name(s), or 'all' (default)")
+    p.add_argument("--episodes", type=int, default=100, help="seeds per task (default: 100)")
+    p.add_argument("--workers", type=int, default=1, help="parallel worker processes (default: 1)")
+    p.add_argument("--out", help="write a result JSON here (e.g. results/experts.json)")
+    p.set_defaults(func=cmd_experts)
+
+    p = sub.add_parser("snapshot", help="render a picture of each task's first scene (for the docs)")
+    p.add_argument("--task", nargs="+", default=["all"], help="task name(s), or 'all' (default)")
+    p.add_argument("--out", default="docs/img/tasks", help="output folder (default: docs/img/tasks)")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--image-size", type=int, default=256)
+    p.add_argument("--cameras", nargs="+", default=["front", "overhead"])
+    p.add_argument("--perturb", default="none", help="a perturbation preset, e.g. lighting or swap_sides")
+    p.set_defaults(func=cmd_snapshot)
 
     _add_config_command(sub, "pretrain", "pretrain a single-arm prior on single-arm demos only", PretrainConfig,
                         cmd_pretrain)

@@ -21,10 +21,17 @@ def env(request: pytest.FixtureRequest) -> Iterator[ManipulationEnv]:
 
 
 def test_registry_has_bimanual_and_single_arm_tasks() -> None:
-    assert "push_two_buttons" in task_names(bimanual=True)
+    assert {"push_two_buttons", "lift_ball", "pick_up_plate", "straighten_rope"} <= set(task_names(bimanual=True))
     assert {"push_button", "pick_cube"} <= set(task_names(bimanual=False))
     with pytest.raises(ValueError, match="registered twice"):
         register_task("push_button")(TASKS["push_button"])
+
+
+def test_scene_has_one_robot_per_arm(env: ManipulationEnv) -> None:
+    # Single-arm demonstrations must never contain a second arm.
+    assert len(env.scene.robots) == len(env.arm_names) == (2 if env.task.bimanual else 1)
+    arms = [n for n in env.instances.names if n.startswith("arm_")]
+    assert arms == [f"arm_{a}" for a in env.arm_names]
 
 
 def test_seeded_reset_is_deterministic(env: ManipulationEnv) -> None:

@@ -19,6 +19,8 @@ from scipy.spatial.transform import Rotation, Slerp
 
 from bimanualshift.geometry.frames import ArmFrame, canonical_quat
 from bimanualshift.sim.cameras import CameraRig, default_camera_names, wrist_camera_names
+from bimanualshift.sim.perturb_scene import apply_to_model, mirror_bodies
+from bimanualshift.sim.perturbations import Perturbations
 from bimanualshift.sim.scene import TABLE_TOP_Z, RobosuiteScene
 from bimanualshift.sim.segmentation import SceneInstances
 from bimanualshift.sim.task import ACTION_DIM, ArmAction, Keyframe, SimHandle, Task, make_task
@@ -36,8 +38,11 @@ class ManipulationEnv(gym.Env):
     metadata = {"render_modes": ["rgb_array"]}
 
     def __init__(self, task: str | Task, image_size: int = 128, camera_names: tuple[str, ...] | None = None,
-                 max_steps_per_keyframe: int = 90) -> None:
-        self.task = make_task(task) if isinstance(task, str) else task
+                 max_steps_per_keyframe: int = 90, perturbations: Perturbations | None = None) -> None:
+        self.task = make_task(task, perturbations) if isinstance(task, str) else task
+        if perturbations is not None and not isinstance(task, str):
+            self.task.perturbations = perturbations
+        self.perturbations = self.task.perturbations
         self.arm_names = self.task.arm_names
         self.scene = RobosuiteScene(self.task)
         self.scene.reset()
@@ -45,11 +50,18 @@ class ManipulationEnv(gym.Env):
         self.data: mujoco.MjData = self.scene.sim.data._data
         self.sim = SimHandle(self.model, self.data, TABLE_TOP_Z)
         self.task.after_compile(self.model)
+        apply_to_model(self.model, self.perturbations)
         self.camera_names = camera_names or default_camera_names(self.arm_names)
         self.cameras = CameraRig(self.model, self.camera_names, wrist_camera_names(self.arm_names),
                                  image_size, image_size)
         self.instances = SceneInstances.from_model(self.model, self.task, self.arm_names)
         self.arm_frames: dict[str, ArmFrame] = self.scene.arm_frames()
+        fixed = {"table", "world", *(r.robot_model.root_body for r in self.scene.robots)}
+        self._task_roots = [  # the task's own objects: what a left-right swap mirrors
+            b for b in range(1, self.model.nbody)
+            if self.model.body_parentid[b] == 0 and self.model.body(b).name not in fixed
+            and not self.model.body(b).name.startswith("mount")
+        ]
         self.max_steps_per_keyframe = max_steps_per_keyframe
         self.keyframe_index = 0
         self.gripper_open = {arm: 1.0 for arm in self.arm_names}
@@ -68,6 +80,8 @@ class ManipulationEnv(gym.Env):
         self.scene.reset()  # soft reset: robots back to their initial joints, controllers cleared
         self.task.initialize_episode(self.sim, np.random.default_rng(seed))
         mujoco.mj_forward(self.model, self.data)
+        if self.perturbations.swap_sides:
+            mirror_bodies(self.model, self.data, self._task_roots)
         self.keyframe_index = 0
         self.gripper_open = {arm: 1.0 for arm in self.arm_names}
         self._settle(steps=5)
@@ -122,6 +136,9 @@ class ManipulationEnv(gym.Env):
         return np.asarray(rows, dtype=np.float32)
 
     def observe(self, render: bool = True) -> dict[str, Any]:
+        # mj_step leaves positions computed before its integration: bring them up to date with qpos so an
+        # observation depends on the state alone (and a restored state renders identically).
+        mujoco.mj_forward(self.model, self.data)
         obs: dict[str, Any] = {
             "proprio": self.proprio(),
             "instruction": self.task.instruction(),
@@ -143,6 +160,7 @@ class ManipulationEnv(gym.Env):
         return obs
 
     def render(self) -> np.ndarray:
+        mujoco.mj_forward(self.model, self.data)
         return self.cameras.render(self.data, depth_and_segmentation=False)[self.camera_names[0]].rgb
 
     # ---- execution -------------------------------------------------------------------------------------

@@ -13,8 +13,10 @@ BUTTON_PRESSED_AT = 0.008  # joint travel (m) that counts as a press
 BUTTON_TOP = 0.02 + 0.024  # cap top above the table when released
 
 
-def button_xml(name: str) -> str:
+def button_xml(name: str, square: bool = False) -> str:
     """A push button: a grey housing and a spring-loaded coloured cap on a vertical slide joint."""
+    cap = (f'type="box" size="{BUTTON_RADIUS * 0.9} {BUTTON_RADIUS * 0.9} 0.012"' if square
+           else f'type="cylinder" size="{BUTTON_RADIUS} 0.012"')
     return f"""
 <body name="{name}" pos="0 0 {TABLE_TOP_Z}">
   <geom name="{name}_housing" type="cylinder" size="0.045 0.01" pos="0 0 0.01" rgba="0.35 0.35 0.38 1"
@@ -23,7 +25,7 @@ def button_xml(name: str) -> str:
     <joint name="{name}_joint" type="slide" axis="0 0 1" range="-{BUTTON_TRAVEL} 0" limited="true"
            stiffness="40" springref="0" damping="1"/>
     <inertial pos="0 0 0.012" mass="0.05" diaginertia="2e-5 2e-5 3e-5"/>
-    <geom name="{name}_cap" type="cylinder" size="{BUTTON_RADIUS} 0.012" pos="0 0 0.012" rgba="1 0 0 1"
+    <geom name="{name}_cap" {cap} pos="0 0 0.012" rgba="1 0 0 1"
           group="1"/>
   </body>
 </body>"""

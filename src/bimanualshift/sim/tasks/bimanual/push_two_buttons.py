@@ -27,7 +27,7 @@ class PushTwoButtons(Task):
     bimanual = True
 
     def scene_xml(self) -> str:
-        return "".join(button_xml(b) for b in BUTTONS)
+        return "".join(button_xml(b, square=self.perturbations.unseen_shapes) for b in BUTTONS)
 
     def initialize_episode(self, sim: SimHandle, rng: np.random.Generator) -> None:
         colours = self.pick_colours(rng, 3)
@@ -60,6 +60,8 @@ class PushTwoButtons(Task):
         return all(self.episode["pressed"][i] for i in self.episode["named"])
 
     def expert_keyframes(self, sim: SimHandle) -> list[Keyframe]:
-        tops = {"left": button_top(sim, BUTTONS[0]), "right": button_top(sim, BUTTONS[1])}
+        # Each arm presses the named button on its side (the layout may be mirrored).
+        a, b = (button_top(sim, BUTTONS[i]) for i in (0, 1))
+        tops = {"left": a, "right": b} if a[1] > b[1] else {"left": b, "right": a}
         return press_keyframes(tops)
 

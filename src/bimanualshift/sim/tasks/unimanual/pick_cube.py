@@ -21,7 +21,7 @@ class PickCube(Task):
     bimanual = False
 
     def scene_xml(self) -> str:
-        return "".join(cube_xml(c) for c in CUBES)
+        return "".join(cube_xml(c, sphere=self.perturbations.unseen_shapes) for c in CUBES)
 
     def initialize_episode(self, sim: SimHandle, rng: np.random.Generator) -> None:
         n = int(rng.integers(1, len(CUBES) + 1))

@@ -25,7 +25,7 @@ class PushButton(Task):
     bimanual = False
 
     def scene_xml(self) -> str:
-        return "".join(button_xml(b) for b in BUTTONS)
+        return "".join(button_xml(b, square=self.perturbations.unseen_shapes) for b in BUTTONS)
 
     def initialize_episode(self, sim: SimHandle, rng: np.random.Generator) -> None:
         n = int(rng.integers(1, len(BUTTONS) + 1))

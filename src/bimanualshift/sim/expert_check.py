@@ -1,0 +1,56 @@
+"""Measure every task's scripted expert: success rate, wall time and keyframes per episode (no rendering)."""
+
+from __future__ import annotations
+
+import multiprocessing as mp
+import time
+from dataclasses import dataclass
+
+import numpy as np
+from tqdm import tqdm
+
+from bimanualshift.sim.env import ManipulationEnv
+
+_ENVS: dict[str, ManipulationEnv] = {}
+
+
+@dataclass(frozen=True)
+class ExpertEpisode:
+    task: str
+    seed: int
+    success: bool
+    keyframes: int
+    wall_time_s: float
+
+
+def run_expert(env: ManipulationEnv, seed: int) -> ExpertEpisode:
+    started = time.perf_counter()
+    env.reset(seed=seed, options={"render": False})
+    keyframes = env.expert_keyframes()
+    for keyframe in keyframes:
+        env.step(np.stack([keyframe[arm].to_vector() for arm in env.arm_names]), render=False)
+    return ExpertEpisode(env.task.name, seed, env.success(), len(keyframes), time.perf_counter() - started)
+
+
+def _run_job(job: tuple[str, int]) -> ExpertEpisode:
+    task, seed = job
+    if task not in _ENVS:
+        _ENVS[task] = ManipulationEnv(task, image_size=64)
+    return run_expert(_ENVS[task], seed)
+
+
+def check_experts(tasks: list[str], seeds: list[int], workers: int = 1) -> list[ExpertEpisode]:
+    jobs = [(task, seed) for task in tasks for seed in seeds]
+    bar = tqdm(total=len(jobs), desc="expert episodes", unit="ep")
+    results: list[ExpertEpisode] = []
+    if workers <= 1:
+        for job in jobs:
+            results.append(_run_job(job))
+            bar.update()
+    else:
+        with mp.get_context("spawn").Pool(workers) as pool:
+            for episode in pool.imap_unordered(_run_job, jobs, chunksize=2):
+                results.append(episode)
+                bar.update()
+    bar.close()
+    return sorted(results, key=lambda e: (e.task, e.seed))

@@ -1,0 +1,72 @@
+"""Applying ``Perturbations`` to a compiled scene (appearance, cameras) and to an episode (mirrored layout)."""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from bimanualshift.sim.cameras import STATIC_CAMERAS
+from bimanualshift.sim.perturbations import Perturbations
+
+TABLE_COLOUR = (0.15, 0.2, 0.35)
+FLOOR_COLOUR = (0.1, 0.1, 0.1)
+
+
+def apply_to_model(model: mujoco.MjModel, p: Perturbations) -> None:
+    """Change lights, surfaces and camera poses once, after the scene is compiled."""
+    if p.lighting > 0:
+        dim = 1.0 - 0.7 * p.lighting
+        warm = np.array([1.0, 0.85, 0.6]) ** p.lighting
+        model.light_diffuse[:] = model.light_diffuse * dim * warm
+        model.vis.headlight.diffuse[:] = np.asarray(model.vis.headlight.diffuse) * dim * warm
+        model.vis.headlight.ambient[:] = np.asarray(model.vis.headlight.ambient) * dim * warm
+    if p.glare:
+        model.light_specular[:] = 1.0
+        model.vis.headlight.specular[:] = 1.0
+        model.mat_specular[:] = 1.0
+        model.mat_shininess[:] = 1.0
+        model.geom_matid[model.geom_matid < 0] = -1  # plain-coloured geoms keep their rgba
+    if p.table_texture:
+        for g in range(model.ngeom):
+            body = model.body(int(model.body_rootid[model.geom_bodyid[g]])).name
+            name = model.geom(g).name
+            if body == "table" and model.geom_group[g] == 1:
+                model.geom_matid[g] = -1
+                model.geom_rgba[g, :3] = TABLE_COLOUR
+            elif name == "floor":
+                model.geom_matid[g] = -1
+                model.geom_rgba[g, :3] = FLOOR_COLOUR
+    if p.camera_shift_m > 0 or p.camera_rotate_deg > 0:
+        rng = np.random.default_rng(p.seed)
+        for name in STATIC_CAMERAS:
+            cam = model.camera(name).id
+            direction = rng.normal(size=3)
+            model.cam_pos[cam] += p.camera_shift_m * direction / np.linalg.norm(direction)
+            axis = rng.normal(size=3)
+            turn = Rotation.from_rotvec(np.deg2rad(p.camera_rotate_deg) * axis / np.linalg.norm(axis))
+            quat = turn * Rotation.from_quat(np.roll(model.cam_quat[cam], -1))
+            model.cam_quat[cam] = np.roll(quat.as_quat(), 1)
+
+
+def _reflect_wxyz(q: np.ndarray) -> np.ndarray:
+    """The rotation M R M for the mirror M = diag(1, -1, 1), as a (w, x, y, z) quaternion."""
+    return np.array([q[0], -q[1], q[2], -q[3]])
+
+
+def mirror_bodies(model: mujoco.MjModel, data: mujoco.MjData, roots: list[int]) -> None:
+    """Mirror the given root bodies (and everything hanging from them) across the x-z plane."""
+    for body in range(1, model.nbody):
+        if int(model.body_rootid[body]) not in roots:
+            continue
+        if model.body_parentid[body] == 0:
+            model.body_pos[body, 1] *= -1
+            model.body_quat[body] = _reflect_wxyz(model.body_quat[body])
+        for j in range(model.body_jntadr[body], model.body_jntadr[body] + model.body_jntnum[body]):
+            adr, kind = model.jnt_qposadr[j], model.jnt_type[j]
+            if kind == mujoco.mjtJoint.mjJNT_FREE:
+                data.qpos[adr + 1] *= -1
+                data.qpos[adr + 3 : adr + 7] = _reflect_wxyz(data.qpos[adr + 3 : adr + 7])
+            elif kind == mujoco.mjtJoint.mjJNT_BALL:
+                data.qpos[adr : adr + 4] = _reflect_wxyz(data.qpos[adr : adr + 4])
+    mujoco.mj_forward(model, data)
