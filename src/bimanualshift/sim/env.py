@@ -63,6 +63,7 @@ class ManipulationEnv(gym.Env):
             and not self.model.body(b).name.startswith("mount")
         ]
         self.max_steps_per_keyframe = max_steps_per_keyframe
+        self._dense: list[dict[str, np.ndarray]] | None = None
         self.keyframe_index = 0
         self.gripper_open = {arm: 1.0 for arm in self.arm_names}
         n = len(self.arm_names)
@@ -203,6 +204,31 @@ class ManipulationEnv(gym.Env):
     def _control_step(self, command: np.ndarray) -> None:
         self.scene.step(command)
         self.task.on_control_step(self.sim)
+        if self._dense is not None:
+            self._dense.append(self._dense_sample())
+
+    # ---- dense trajectories ----------------------------------------------------------------------------
+    def start_dense_recording(self) -> None:
+        """Record every control step from now on (joints, end-effector poses, grippers) until collected."""
+        self._dense = [self._dense_sample()]
+
+    def dense_trajectory(self) -> dict[str, np.ndarray]:
+        """The recorded control steps: joint_positions / joint_velocities (T, arms, 7), eef_pose (T, arms, 7:
+        xyz + quaternion xyzw) and gripper_open (T, arms). Recording stops."""
+        if self._dense is None:
+            raise RuntimeError("call start_dense_recording() before dense_trajectory()")
+        samples, self._dense = self._dense, None
+        return {key: np.stack([s[key] for s in samples]).astype(np.float32) for key in samples[0]}
+
+    def _dense_sample(self) -> dict[str, np.ndarray]:
+        robots = self.scene.robots
+        poses = [np.r_[self.eef_pose(i)] for i in range(len(robots))]
+        return {
+            "joint_positions": np.stack([self.data.qpos[r._ref_joint_pos_indexes] for r in robots]),
+            "joint_velocities": np.stack([self.data.qvel[r._ref_joint_vel_indexes] for r in robots]),
+            "eef_pose": np.stack(poses),
+            "gripper_open": np.array([self.gripper_open[a] for a in self.arm_names]),
+        }
 
     def _settle(self, steps: int) -> None:
         positions, rotations = {}, {}
