@@ -19,3 +19,21 @@ def test_results_block_is_generated_from_the_result_file(tmp_path: Path) -> None
     assert "| push_two_buttons | bimanualshift | 20 | 55.0 % | 34.2–74.2 % | 20 |" in text
     assert "stale" not in text and text.startswith("intro\n") and text.endswith("end\n")
     assert "`bimanualshift demo`" in text and "abc123def456" in text
+
+
+def test_expert_results_get_their_own_table(tmp_path) -> None:  # noqa: ANN001
+    import json
+
+    from bimanualshift.evaluation.markdown import render_readme
+
+    (tmp_path / "results").mkdir()
+    (tmp_path / "results" / "experts.json").write_text(json.dumps({
+        "command": "bimanualshift experts", "commit": "abc", "created": "now", "machine": "m", "wall_time_s": 60,
+        "notes": "n", "seeds": {"test": [1]},
+        "rows": [{"task": "lift_ball", "bimanual": True, "success": 0.97, "ci95": [0.9, 0.99], "episodes": 100,
+                  "mean_wall_time_s": 3.21, "mean_keyframes": 4.0}],
+    }))
+    readme = tmp_path / "README.md"
+    readme.write_text("x\n<!-- results:experts -->\n<!-- /results:experts -->\n")
+    assert render_readme(readme, tmp_path / "results") == ["experts"]
+    assert "| lift_ball | two | 97.0 % | 90.0–99.0 % | 100 | 3.2 | 4.0 |" in readme.read_text()

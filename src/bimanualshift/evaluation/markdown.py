@@ -29,6 +29,25 @@ def success_table(result: dict[str, Any]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def experts_table(result: dict[str, Any]) -> str:
+    lines = ["| task | arms | expert success | 95 % CI | episodes | s / episode | keyframes |",
+             "|---|---|---|---|---|---|---|"]
+    for r in result["rows"]:
+        lo, hi = r["ci95"]
+        lines.append(f"| {r['task']} | {'two' if r['bimanual'] else 'one'} | {100 * r['success']:.1f} % | "
+                     f"{100 * lo:.1f}–{100 * hi:.1f} % | {r['episodes']} | {r['mean_wall_time_s']:.1f} | "
+                     f"{r['mean_keyframes']:.1f} |")
+    lines.append("")
+    lines.append(f"Produced by `{result['command']}` at commit `{result['commit'][:12]}` on {result['created']} "
+                 f"({result['machine']}); wall time {result['wall_time_s'] / 60:.1f} min. {result['notes']}.")
+    return "\n".join(lines) + "\n"
+
+
+def table_for(result: dict[str, Any]) -> str:
+    """Expert measurements have no method column; everything else is a success table."""
+    return experts_table(result) if result["rows"] and "bimanual" in result["rows"][0] else success_table(result)
+
+
 def result_file(results_dir: Path, name: str) -> Path:
     for candidate in (results_dir / name / "summary.json", results_dir / f"{name}.json"):
         if candidate.is_file():
@@ -45,7 +64,7 @@ def render_readme(readme: str | Path, results_dir: str | Path = "results") -> li
     def replace(match: re.Match[str]) -> str:
         name = match.group("name")
         names.append(name)
-        table = success_table(json.loads(result_file(results_dir, name).read_text()))
+        table = table_for(json.loads(result_file(results_dir, name).read_text()))
         return match.group(1) + table + match.group(4)
 
     new = BLOCK.sub(replace, text)
