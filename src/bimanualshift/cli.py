@@ -69,6 +69,18 @@ def _config_from_args(config_cls: type, args: argparse.Namespace):  # noqa: ANN2
     return config_cls(**values)
 
 
+def _resolve_tasks(requested: list[str]) -> list[str]:
+    """Task names from --task: registered names, or 'all'; exits with the list of choices otherwise."""
+    from bimanualshift.sim.task import task_names
+
+    known = task_names()
+    tasks = known if requested == ["all"] else requested
+    bad = [t for t in tasks if t not in known]
+    if bad:
+        sys.exit(f"error: unknown task(s) {bad}; choose from {known} or 'all'")
+    return tasks
+
+
 def cmd_tasks(args: argparse.Namespace) -> None:
     from bimanualshift.sim.task import TASKS, task_names
 
@@ -80,13 +92,8 @@ def cmd_tasks(args: argparse.Namespace) -> None:
 def cmd_collect(args: argparse.Namespace) -> None:
     from bimanualshift.data.collect import collect
     from bimanualshift.data.seeds import split_seeds
-    from bimanualshift.sim.task import task_names
 
-    known = task_names()
-    tasks = known if args.task == ["all"] else args.task
-    bad = [t for t in tasks if t not in known]
-    if bad:
-        sys.exit(f"error: unknown task(s) {bad}; choose from {known} or 'all'")
+    tasks = _resolve_tasks(args.task)
     if args.episodes < 1:
         sys.exit("error: --episodes must be at least 1")
     stats = collect(tasks, split_seeds(args.split, args.episodes, args.start), args.out, workers=args.workers,
@@ -101,13 +108,9 @@ def cmd_experts(args: argparse.Namespace) -> None:
     from bimanualshift.evaluation.report import write_result
     from bimanualshift.evaluation.stats import wilson_interval
     from bimanualshift.sim.expert_check import check_experts
-    from bimanualshift.sim.task import TASKS, task_names
+    from bimanualshift.sim.task import TASKS
 
-    known = task_names()
-    tasks = known if args.task == ["all"] else args.task
-    bad = [t for t in tasks if t not in known]
-    if bad:
-        sys.exit(f"error: unknown task(s) {bad}; choose from {known} or 'all'")
+    tasks = _resolve_tasks(args.task)
     started = time.time()
     seeds = split_seeds("test", args.episodes)
     episodes = check_experts(tasks, seeds, workers=args.workers)
@@ -136,13 +139,7 @@ def cmd_snapshot(args: argparse.Namespace) -> None:
 
     from bimanualshift.sim.env import ManipulationEnv
     from bimanualshift.sim.perturbations import preset
-    from bimanualshift.sim.task import task_names
-
-    known = task_names()
-    tasks = known if args.task == ["all"] else args.task
-    bad = [t for t in tasks if t not in known]
-    if bad:
-        sys.exit(f"error: unknown task(s) {bad}; choose from {known} or 'all'")
+    tasks = _resolve_tasks(args.task)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     for task in tasks:
