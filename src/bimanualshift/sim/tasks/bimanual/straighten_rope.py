@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import mujoco
 import numpy as np
 
 from bimanualshift.sim.props.rope import (
@@ -61,7 +62,7 @@ class StraightenRope(Task):
     def scene_xml(self) -> str:
         return rope_xml("rope") + "".join(marker_xml(name, TARGET_RADIUS) for name in TARGETS)
 
-    def after_compile(self, model) -> None:
+    def after_compile(self, model: mujoco.MjModel) -> None:
         show_rope(model, "rope")
 
     def instance_name(self, root_body: str) -> str:
