@@ -26,7 +26,6 @@ def apply_to_model(model: mujoco.MjModel, p: Perturbations) -> None:
         model.vis.headlight.specular[:] = 1.0
         model.mat_specular[:] = 1.0
         model.mat_shininess[:] = 1.0
-        model.geom_matid[model.geom_matid < 0] = -1  # plain-coloured geoms keep their rgba
     if p.table_texture:
         for g in range(model.ngeom):
             body = model.body(int(model.body_rootid[model.geom_bodyid[g]])).name

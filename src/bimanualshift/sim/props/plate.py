@@ -53,6 +53,3 @@ def plate_xml(name: str, radius: float, square: bool = False, mass: float = 0.15
   {"".join(geoms)}
 </body>"""
 
-
-def plate_geoms(model_geom_names: list[str], name: str) -> list[str]:
-    return [g for g in model_geom_names if g.startswith(f"{name}_")]

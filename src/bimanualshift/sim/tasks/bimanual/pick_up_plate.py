@@ -13,7 +13,6 @@ RADIUS = 0.12
 REGION = ((-0.06, 0.12), (-0.08, 0.08))
 LIFTED_BY = 0.08
 GRASP_HEIGHT = RIM_HEIGHT - 0.008  # gripper site height above the table: pads level with the rim
-PARTS = ["plate_foot", "plate_geom", *(f"plate_rim{i}" for i in range(20))]
 
 
 @register_task("pick_up_plate")
