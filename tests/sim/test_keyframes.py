@@ -53,7 +53,7 @@ def test_discovery_recovers_an_expert_rollouts_keyframes() -> None:
     expert = env.expert_keyframes()
     ends = []
     for keyframe in expert:
-        env.step(np.stack([keyframe[a].to_vector() for a in env.arm_names]), render=False)
+        env.step(env.action_from_keyframe(keyframe), render=False)
         ends.append(len(env._dense) - 1)
     dense = env.dense_trajectory()
     env.close()

@@ -49,7 +49,7 @@ def test_swap_sides_mirrors_the_layout_and_the_expert_still_succeeds() -> None:
         np.testing.assert_allclose(b, a * [1, -1, 1], atol=1e-9)
     assert mirrored.task.instruction() == plain.task.instruction()
     for keyframe in mirrored.expert_keyframes():
-        mirrored.step(np.stack([keyframe[a].to_vector() for a in mirrored.arm_names]), render=False)
+        mirrored.step(mirrored.action_from_keyframe(keyframe), render=False)
     assert mirrored.success()
     plain.close()
     mirrored.close()

@@ -85,7 +85,7 @@ def test_expert_succeeds(env: ManipulationEnv, seed: int) -> None:
     env.reset(seed=seed, options={"render": False})
     assert not env.success()
     for keyframe in env.expert_keyframes():
-        env.step(np.stack([keyframe[a].to_vector() for a in env.arm_names]), render=False)
+        env.step(env.action_from_keyframe(keyframe), render=False)
     assert env.success(), f"{env.task.name} expert failed on seed {seed}"
 
 

@@ -57,7 +57,7 @@ def record_expert_episode(env: ManipulationEnv, seed: int) -> Episode:
     observations, actions = [], []
     success = False
     for keyframe in env.expert_keyframes():
-        action = np.stack([keyframe[arm].to_vector() for arm in env.arm_names])
+        action = env.action_from_keyframe(keyframe)
         observations.append(obs)
         actions.append(action)
         obs, _, success, _, _ = env.step(action)

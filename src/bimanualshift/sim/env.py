@@ -101,6 +101,10 @@ class ManipulationEnv(gym.Env):
     def expert_keyframes(self) -> list[Keyframe]:
         return self.task.expert_keyframes(self.sim)
 
+    def action_from_keyframe(self, keyframe: Keyframe) -> np.ndarray:
+        """The (n_arms, 9) action array ``step`` takes, rows in this env's arm order."""
+        return np.stack([keyframe[arm].to_vector() for arm in self.arm_names])
+
     def success(self) -> bool:
         return self.task.evaluate_success(self.sim)
 

@@ -6,7 +6,6 @@ import multiprocessing as mp
 import time
 from dataclasses import dataclass
 
-import numpy as np
 from tqdm import tqdm
 
 from bimanualshift.sim.env import ManipulationEnv
@@ -28,7 +27,7 @@ def run_expert(env: ManipulationEnv, seed: int) -> ExpertEpisode:
     env.reset(seed=seed, options={"render": False})
     keyframes = env.expert_keyframes()
     for keyframe in keyframes:
-        env.step(np.stack([keyframe[arm].to_vector() for arm in env.arm_names]), render=False)
+        env.step(env.action_from_keyframe(keyframe), render=False)
     return ExpertEpisode(env.task.name, seed, env.success(), len(keyframes), time.perf_counter() - started)
 
 
