@@ -34,6 +34,7 @@ PHRASINGS = (
 REACH = ((-0.22, 0.28), (-0.36, 0.36))
 GRASP_Z = TABLE_TOP_Z + 0.012  # gripper site over a rope lying on the table: pads around it, tips clear
 CARRY_Z = TABLE_TOP_Z + 0.06
+END_MAX_X = 0.14  # a gripper pointing down reaches the table surface only this far from the robots' bases
 
 
 def crumpled_rope(rng: np.random.Generator) -> tuple[np.ndarray, float, np.ndarray]:
@@ -49,7 +50,8 @@ def crumpled_rope(rng: np.random.Generator) -> tuple[np.ndarray, float, np.ndarr
         span = np.linalg.norm(chain[-1] - chain[0])
         far = np.linalg.norm(chain[:, None] - chain[None], axis=-1)[np.triu_indices(len(chain), k=3)]
         inside = np.all((chain >= [REACH[0][0], REACH[1][0]]) & (chain <= [REACH[0][1], REACH[1][1]]))
-        if span < 0.38 and far.min() > 0.028 and inside and chain[0, 1] > chain[-1, 1] + 0.08:
+        reachable = max(chain[0, 0], chain[-1, 0]) < END_MAX_X
+        if span < 0.38 and far.min() > 0.028 and inside and reachable and chain[0, 1] > chain[-1, 1] + 0.08:
             return chain[0], heading, bends
     raise RuntimeError("could not sample a rope shape")
 
