@@ -2,8 +2,10 @@ import pytest
 
 from bimanualshift.cli import build_parser, main
 
+COMMANDS = ["experts", "snapshot", "video", "collect", "pretrain", "train", "eval", "demo", "tasks"]
 
-@pytest.mark.parametrize("command", ["experts", "snapshot", "collect", "pretrain", "train", "eval", "demo", "tasks"])
+
+@pytest.mark.parametrize("command", COMMANDS)
 def test_every_subcommand_has_help(command: str, capsys: pytest.CaptureFixture[str]) -> None:
     with pytest.raises(SystemExit) as exc:
         main([command, "--help"])
@@ -38,3 +40,23 @@ def test_experts_writes_a_result_file(tmp_path) -> None:  # noqa: ANN001
     assert result["command"].startswith("bimanualshift") and result["seeds"]["test"]
     with pytest.raises(SystemExit, match="unknown task"):
         main(["experts", "--task", "nope", "--episodes", "1"])
+
+
+def test_task_groups_resolve_to_registered_tasks() -> None:
+    from bimanualshift.cli import _resolve_tasks
+    from bimanualshift.sim.task import task_names
+
+    assert _resolve_tasks(["bimanual"]) == task_names(bimanual=True)
+    assert _resolve_tasks(["unimanual", "lift_ball"]) == [*task_names(bimanual=False), "lift_ball"]
+    with pytest.raises(SystemExit, match="all / bimanual / unimanual"):
+        _resolve_tasks(["bimanul"])
+
+
+def test_video_records_the_expert(tmp_path) -> None:  # noqa: ANN001
+    import imageio.v3 as iio
+
+    main(["video", "--task", "pick_up_plate", "--out", str(tmp_path), "--image-size", "32", "--every", "5",
+          "--cameras", "front"])
+    frames = iio.imread(tmp_path / "pick_up_plate.mp4")
+    assert frames.shape[0] > 10 and frames.shape[1:] == (32, 32, 3)
+    assert frames[0].astype(int).sum() != frames[-1].astype(int).sum()  # the scene moved

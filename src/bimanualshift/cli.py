@@ -70,14 +70,16 @@ def _config_from_args(config_cls: type, args: argparse.Namespace):  # noqa: ANN2
 
 
 def _resolve_tasks(requested: list[str]) -> list[str]:
-    """Task names from --task: registered names, or 'all'; exits with the list of choices otherwise."""
+    """Task names from --task: registered names, 'all', 'bimanual' or 'unimanual'; exits with the list of
+    choices otherwise."""
     from bimanualshift.sim.task import task_names
 
     known = task_names()
-    tasks = known if requested == ["all"] else requested
+    groups = {"all": known, "bimanual": task_names(bimanual=True), "unimanual": task_names(bimanual=False)}
+    tasks = [t for name in requested for t in groups.get(name, [name])]
     bad = [t for t in tasks if t not in known]
     if bad:
-        sys.exit(f"error: unknown task(s) {bad}; choose from {known} or 'all'")
+        sys.exit(f"error: unknown task(s) {bad}; choose from {known}, or all / bimanual / unimanual")
     return tasks
 
 
@@ -150,6 +152,25 @@ def cmd_snapshot(args: argparse.Namespace) -> None:
         path = out / f"{task}{'' if args.perturb == 'none' else '_' + args.perturb}.png"
         iio.imwrite(path, image)
         print(f"{path}: {env.task.instruction()!r}")
+        env.close()
+
+
+def cmd_video(args: argparse.Namespace) -> None:
+    from tqdm import tqdm
+
+    from bimanualshift.evaluation.media import write_video
+    from bimanualshift.sim.env import ManipulationEnv
+    from bimanualshift.sim.perturbations import preset
+    out = Path(args.out)
+    for task in tqdm(_resolve_tasks(args.task), desc="video", unit="task"):
+        env = ManipulationEnv(task, image_size=args.image_size, perturbations=preset(args.perturb))
+        env.reset(seed=args.seed, options={"render": False})
+        env.start_video(tuple(args.cameras), every=args.every)
+        for keyframe in env.expert_keyframes():
+            env.step(env.action_from_keyframe(keyframe), render=False)
+        success = env.success()
+        path = write_video(out / f"{task}.mp4", env.video_frames(), fps=args.fps)
+        tqdm.write(f"{path}: {env.task.instruction()!r}, expert {'succeeded' if success else 'FAILED'}")
         env.close()
 
 
@@ -237,20 +258,31 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_collect)
 
     p = sub.add_parser("experts", help="measure the scripted experts' success rate on test seeds (no rendering)")
-    p.add_argument("--task", nargs="+", default=["all"], help="task name(s), or 'all' (default)")
+    p.add_argument("--task", nargs="+", default=["all"], help="task name(s), or all (default) / bimanual / unimanual")
     p.add_argument("--episodes", type=int, default=100, help="seeds per task (default: 100)")
     p.add_argument("--workers", type=int, default=1, help="parallel worker processes (default: 1)")
     p.add_argument("--out", help="write a result JSON here (e.g. results/experts.json)")
     p.set_defaults(func=cmd_experts)
 
     p = sub.add_parser("snapshot", help="render a picture of each task's first scene (for the docs)")
-    p.add_argument("--task", nargs="+", default=["all"], help="task name(s), or 'all' (default)")
+    p.add_argument("--task", nargs="+", default=["all"], help="task name(s), or all (default) / bimanual / unimanual")
     p.add_argument("--out", default="docs/img/tasks", help="output folder (default: docs/img/tasks)")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--image-size", type=int, default=256)
     p.add_argument("--cameras", nargs="+", default=["front", "overhead"])
     p.add_argument("--perturb", default="none", help="a perturbation preset, e.g. lighting or swap_sides")
     p.set_defaults(func=cmd_snapshot)
+
+    p = sub.add_parser("video", help="record the scripted expert solving each task to MP4 (for the docs)")
+    p.add_argument("--task", nargs="+", default=["all"], help="task name(s), or all (default) / bimanual / unimanual")
+    p.add_argument("--out", default="docs/videos", help="output folder (default: docs/videos)")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--image-size", type=int, default=192)
+    p.add_argument("--cameras", nargs="+", default=["front", "over_shoulder_left"])
+    p.add_argument("--every", type=int, default=3, help="control steps (50 ms each) per frame (default: 3)")
+    p.add_argument("--fps", type=int, default=13, help="frames per second of the video (default: 13)")
+    p.add_argument("--perturb", default="none", help="a perturbation preset, e.g. lighting or swap_sides")
+    p.set_defaults(func=cmd_video)
 
     _add_config_command(sub, "pretrain", "pretrain a single-arm prior on single-arm demos only", PretrainConfig,
                         cmd_pretrain)

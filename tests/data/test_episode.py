@@ -19,6 +19,26 @@ def test_round_trip(bimanual_episode_path: Path, tmp_path: Path) -> None:
         np.testing.assert_array_equal(again[key], value)
     assert again.instruction == ep.instruction and again.seed == ep.seed
     assert again.instance_names == ep.instance_names
+    assert ep.dense is not None and again.dense is not None
+    for key, value in ep.dense.items():
+        np.testing.assert_array_equal(again.dense[key], value)
+
+
+def test_collected_episode_carries_its_dense_trajectory(bimanual_episode_path: Path) -> None:
+    ep = read_episode(bimanual_episode_path)
+    dense = ep.dense
+    assert dense is not None
+    steps = dense["eef_pose"].shape[0]
+    assert steps > 4 * ep.num_keyframes  # many control steps per keyframe
+    assert dense["joint_positions"].shape == (steps, 2, 7)
+    # The proprio stored at keyframe 0 is the pose the dense trajectory starts from.
+    np.testing.assert_allclose(dense["eef_pose"][0, :, :3], ep["proprio"][0, :, :3], atol=2e-3)
+    # Each gripper's open/close switches happen in the dense record as in the keyframe actions.
+    for arm in range(2):
+        assert set(np.unique(dense["gripper_open"][:, arm])) <= {0.0, 1.0}
+    ep.dense["eef_pose"] = ep.dense["eef_pose"][:, :1]
+    with pytest.raises(EpisodeFormatError, match=r"dense\['eef_pose'\] has shape"):
+        write_episode(Path("/nonexistent/never.h5"), ep)
 
 
 def test_truncated_file_gives_clear_error(bimanual_episode_path: Path, tmp_path: Path) -> None:

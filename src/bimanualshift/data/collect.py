@@ -40,7 +40,7 @@ def stack_observations(observations: list[dict], camera_names: tuple[str, ...]) 
 
 
 def episode_from_rollout(env: ManipulationEnv, seed: int, observations: list[dict], actions: list[np.ndarray],
-                         success: bool) -> Episode:
+                         success: bool, dense: dict[str, np.ndarray] | None = None) -> Episode:
     arrays = stack_observations(observations, env.camera_names)
     arrays["actions"] = np.asarray(actions, dtype=np.float32)
     return Episode(
@@ -48,12 +48,13 @@ def episode_from_rollout(env: ManipulationEnv, seed: int, observations: list[dic
         arm_names=list(env.arm_names), camera_names=list(env.camera_names),
         instance_names=env.instances.names, class_names=env.instances.classes,
         goal_nouns=env.task.goal_nouns(),
-        arm_bases={arm: list(f.position) for arm, f in env.arm_frames.items()}, arrays=arrays,
+        arm_bases={arm: list(f.position) for arm, f in env.arm_frames.items()}, arrays=arrays, dense=dense,
     )
 
 
 def record_expert_episode(env: ManipulationEnv, seed: int) -> Episode:
     obs, _ = env.reset(seed=seed)
+    env.start_dense_recording()
     observations, actions = [], []
     success = False
     for keyframe in env.expert_keyframes():
@@ -62,7 +63,8 @@ def record_expert_episode(env: ManipulationEnv, seed: int) -> Episode:
         actions.append(action)
         obs, _, success, _, _ = env.step(action)
     # The success flag latches (a button pressed once stays pressed); check the final state too.
-    return episode_from_rollout(env, seed, observations, actions, bool(success or env.success()))
+    return episode_from_rollout(env, seed, observations, actions, bool(success or env.success()),
+                                dense=env.dense_trajectory())
 
 
 @dataclass(frozen=True)

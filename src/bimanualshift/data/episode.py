@@ -13,6 +13,9 @@ Layout of ``<task>/episode_<seed>.h5`` (K keyframes, C cameras, A arms, H x W im
     proprio      (K, A, 8)       float32  end-effector xyz, quaternion xyzw, gripper open (world frame)
     actions      (K, A, 9)       float32  the keyframe reached from observation k: xyz, quaternion xyzw,
                                           gripper open, ignore collisions (world frame)
+    dense/       optional, every 50 ms control step of the executed motion (T steps):
+      joint_positions  (T, A, 7) float32, joint_velocities (T, A, 7) float32,
+      eef_pose         (T, A, 7) float32  xyz + quaternion xyzw,  gripper_open (T, A) float32
 
 Observation k is what the cameras saw before keyframe action k was executed. Files are written to a
 temporary name and renamed, so a crash never leaves a half-written episode under the final name.
@@ -47,6 +50,10 @@ ARRAYS: dict[str, tuple[str, tuple[str | int, ...]]] = {
     "actions": ("float32", ("A", 9)),
 }
 
+DENSE_ARRAYS: dict[str, tuple[int, ...]] = {  # name -> shape after the (T, A) axes
+    "joint_positions": (7,), "joint_velocities": (7,), "eef_pose": (7,), "gripper_open": (),
+}
+
 
 class EpisodeFormatError(ValueError):
     """An episode file that is missing, truncated or does not follow the documented schema."""
@@ -65,6 +72,7 @@ class Episode:
     goal_nouns: list[str]
     arm_bases: dict[str, list[float]]
     arrays: dict[str, np.ndarray] = field(default_factory=dict)
+    dense: dict[str, np.ndarray] | None = None  # the control-step trajectory, when it was recorded
 
     @property
     def num_keyframes(self) -> int:
@@ -81,6 +89,8 @@ def episode_path(root: str | Path, task: str, seed: int) -> Path:
 def write_episode(path: str | Path, episode: Episode) -> Path:
     path = Path(path)
     _validate_arrays(episode.arrays, len(episode.camera_names), len(episode.arm_names), str(path))
+    if episode.dense is not None:
+        _validate_dense(episode.dense, len(episode.arm_names), str(path))
     with atomic_writer(path) as tmp, h5py.File(tmp, "w") as f:
         f.attrs["format"] = FORMAT_NAME
         f.attrs["version"] = FORMAT_VERSION
@@ -91,6 +101,10 @@ def write_episode(path: str | Path, episode: Episode) -> Path:
         for name, array in episode.arrays.items():
             f.create_dataset(name, data=array, compression="gzip", compression_opts=4,
                              chunks=(1, *array.shape[1:]) if array.ndim > 1 else None)
+        if episode.dense is not None:
+            group = f.create_group("dense")
+            for name, array in episode.dense.items():
+                group.create_dataset(name, data=array, compression="gzip", compression_opts=4)
     return path
 
 
@@ -115,6 +129,7 @@ def read_episode(path: str | Path) -> Episode:
                     f"{path}: missing fields {missing}; the file is incomplete or from another tool"
                 )
             arrays = {k: f[k][()] for k in ARRAYS}
+            dense = {k: f["dense"][k][()] for k in DENSE_ARRAYS} if "dense" in f else None
     except EpisodeFormatError:
         raise
     except (OSError, KeyError, ValueError) as exc:
@@ -123,9 +138,11 @@ def read_episode(path: str | Path) -> Episode:
     meta: dict[str, Any] = {k: json.loads(attrs[k]) for k in JSON_ATTRS}
     episode = Episode(
         task=str(attrs["task"]), seed=int(attrs["seed"]), instruction=str(attrs["instruction"]),
-        success=bool(attrs["success"]), arrays=arrays, **meta,
+        success=bool(attrs["success"]), arrays=arrays, dense=dense, **meta,
     )
     _validate_arrays(arrays, len(episode.camera_names), len(episode.arm_names), str(path))
+    if dense is not None:
+        _validate_dense(dense, len(episode.arm_names), str(path))
     return episode
 
 
@@ -148,6 +165,17 @@ def _validate_arrays(arrays: dict[str, np.ndarray], n_cameras: int, n_arms: int,
             raise EpisodeFormatError(f"{where}: array {name!r} has dtype {got.dtype}, expected {dtype}")
     if not np.all(np.isfinite(arrays["actions"])):
         raise EpisodeFormatError(f"{where}: actions contain NaN or infinite values")
+
+
+def _validate_dense(dense: dict[str, np.ndarray], n_arms: int, where: str) -> None:
+    if set(dense) != set(DENSE_ARRAYS):
+        raise EpisodeFormatError(f"{where}: dense trajectory has fields {sorted(dense)}, "
+                                 f"expected {sorted(DENSE_ARRAYS)}")
+    steps = dense["gripper_open"].shape[0]
+    for name, tail in DENSE_ARRAYS.items():
+        if dense[name].shape != (steps, n_arms, *tail):
+            raise EpisodeFormatError(f"{where}: dense[{name!r}] has shape {dense[name].shape}, expected "
+                                     f"{(steps, n_arms, *tail)} ({steps} control steps, {n_arms} arms)")
 
 
 def list_episodes(root: str | Path, task: str) -> list[Path]:

@@ -119,6 +119,13 @@ class CameraRig:
             frames[name] = CameraFrame(rgb, depth, geom, self.intrinsics(), self.extrinsics(data, name))
         return frames
 
+    def render_rgb(self, data: mujoco.MjData, name: str) -> np.ndarray:
+        """One camera's colour image only (cheap enough for video frames)."""
+        if self.renderer is None:
+            raise RuntimeError("this camera rig was closed; create a new environment to render")
+        self.renderer.update_scene(data, camera=self.mujoco_names.get(name, name), scene_option=self.option)
+        return self.renderer.render().copy()
+
     def close(self) -> None:
         if self.renderer is not None:
             self.renderer.close()

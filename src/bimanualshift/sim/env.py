@@ -64,6 +64,8 @@ class ManipulationEnv(gym.Env):
         ]
         self.max_steps_per_keyframe = max_steps_per_keyframe
         self._dense: list[dict[str, np.ndarray]] | None = None
+        self._video: tuple[tuple[str, ...], int, list[np.ndarray]] | None = None  # cameras, every n steps, frames
+        self._steps = 0
         self.keyframe_index = 0
         self.gripper_open = {arm: 1.0 for arm in self.arm_names}
         n = len(self.arm_names)
@@ -115,6 +117,7 @@ class ManipulationEnv(gym.Env):
             "qvel": self.data.qvel.copy(),
             "act": self.data.act.copy(),
             "body_pos": self.model.body_pos.copy(),
+            "body_quat": self.model.body_quat.copy(),
             "geom_rgba": self.model.geom_rgba.copy(),
             "episode": copy.deepcopy(self.task.episode),
             "keyframe_index": self.keyframe_index,
@@ -122,7 +125,7 @@ class ManipulationEnv(gym.Env):
         }
 
     def set_state(self, state: dict[str, Any]) -> None:
-        for key in ("qpos", "qvel", "act", "body_pos", "geom_rgba"):
+        for key in ("qpos", "qvel", "act", "body_pos", "body_quat", "geom_rgba"):
             target = getattr(self.data if key in ("qpos", "qvel", "act") else self.model, key)
             if np.shape(state[key]) != target.shape:
                 raise ValueError(f"state[{key!r}] has shape {np.shape(state[key])}, this scene needs {target.shape}")
@@ -208,8 +211,30 @@ class ManipulationEnv(gym.Env):
     def _control_step(self, command: np.ndarray) -> None:
         self.scene.step(command)
         self.task.on_control_step(self.sim)
+        self._steps += 1
         if self._dense is not None:
             self._dense.append(self._dense_sample())
+        if self._video is not None and self._steps % self._video[1] == 0:
+            self._video[2].append(self._video_frame(self._video[0]))
+
+    # ---- videos ----------------------------------------------------------------------------------------
+    def start_video(self, cameras: tuple[str, ...] = ("front",), every: int = 2) -> None:
+        """Record a frame (the given cameras side by side) every ``every`` control steps until collected."""
+        unknown = [c for c in cameras if c not in self.camera_names]
+        if unknown:
+            raise ValueError(f"unknown camera(s) {unknown}; this environment has {list(self.camera_names)}")
+        self._video = (tuple(cameras), max(1, int(every)), [self._video_frame(tuple(cameras))])
+
+    def video_frames(self) -> list[np.ndarray]:
+        """The frames recorded since ``start_video``; recording stops."""
+        if self._video is None:
+            raise RuntimeError("call start_video() before video_frames()")
+        frames, self._video = self._video[2], None
+        return frames
+
+    def _video_frame(self, cameras: tuple[str, ...]) -> np.ndarray:
+        mujoco.mj_forward(self.model, self.data)
+        return np.concatenate([self.cameras.render_rgb(self.data, c) for c in cameras], axis=1)
 
     # ---- dense trajectories ----------------------------------------------------------------------------
     def start_dense_recording(self) -> None:

@@ -90,7 +90,10 @@ class RobosuiteScene(ManipulationEnv):
                 ET.SubElement(extension, "plugin", plugin=plugin)
         objects = ET.fromstring(f"<root>{self.task.scene_xml()}</root>")
         for element in objects:
-            self.model.worldbody.append(element)
+            if element.tag == "contact":  # pairs and excludes go to the model's own <contact> section
+                self.model.contact.extend(list(element))
+            else:
+                self.model.worldbody.append(element)
 
     def reward(self, action: np.ndarray | None = None) -> float:
         return 0.0

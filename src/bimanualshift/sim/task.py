@@ -106,6 +106,17 @@ class SimHandle:
     def body_pos(self, name: str) -> np.ndarray:
         return self.data.xpos[self.body_id(name)].copy()
 
+    def touching_robot(self, body: str) -> bool:
+        """Whether any robot or gripper geom touches the named body (e.g. it is still held)."""
+        target = self.body_id(body)
+        for contact in self.data.contact[: self.data.ncon]:
+            pair = (self.model.geom_bodyid[contact.geom1], self.model.geom_bodyid[contact.geom2])
+            if target in pair:
+                other = pair[1] if pair[0] == target else pair[0]
+                if self.model.body(other).name.startswith(("gripper", "robot")):
+                    return True
+        return False
+
 
 class Task(ABC):
     """Base class of every task; subclasses are registered with ``@register_task``."""
@@ -135,7 +146,8 @@ class Task(ABC):
 
     @abstractmethod
     def scene_xml(self) -> str:
-        """MJCF bodies (as text) added under the world body. Root body names become instance names."""
+        """MJCF bodies (as text) added under the world body; root body names become instance names.
+        A top-level ``<contact>`` element (pairs, excludes) is merged into the model's contact section."""
 
     @abstractmethod
     def initialize_episode(self, sim: SimHandle, rng: np.random.Generator) -> None:

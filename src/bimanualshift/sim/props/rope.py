@@ -18,6 +18,8 @@ ROPE_RADIUS = 0.01
 ROPE_SEGMENTS = 25
 ROPE_LENGTH = 0.5
 SEGMENT = ROPE_LENGTH / ROPE_SEGMENTS
+REACH = ((-0.22, 0.28), (-0.36, 0.36))  # x, y every segment stays within
+END_MAX_X = 0.14  # a gripper pointing down reaches the table surface only this far from the robots' bases
 
 
 def rope_xml(prefix: str) -> str:
@@ -34,15 +36,6 @@ def rope_xml(prefix: str) -> str:
   <geom type="capsule" size="{ROPE_RADIUS}" rgba="0.8 0.2 0.1 1" condim="3" density="300"
         friction="1.2 0.005 0.0001"/>
 </composite>"""
-
-
-def marker_xml(name: str, radius: float) -> str:
-    """A flat disc painted on the table: seen by cameras, touched by nothing."""
-    return f"""
-<body name="{name}" pos="0 0 {TABLE_TOP_Z}">
-  <geom name="{name}_geom" type="cylinder" size="{radius} 0.0008" pos="0 0 0.0008" contype="0" conaffinity="0"
-        group="1" rgba="0.2 0.8 0.2 1"/>
-</body>"""
 
 
 def rope_bodies(prefix: str) -> list[str]:
@@ -86,3 +79,22 @@ def rope_ends(sim: SimHandle, prefix: str) -> tuple[np.ndarray, np.ndarray]:
     last = sim.body_id(rope_bodies(prefix)[-1])
     tail = sim.data.xpos[last] + sim.data.xmat[last].reshape(3, 3)[:, 0] * SEGMENT
     return sim.data.xpos[first].copy(), tail
+
+
+def crumpled_rope(rng: np.random.Generator) -> tuple[np.ndarray, float, np.ndarray]:
+    """A random smooth bend profile (start xy, heading, bends) that keeps the rope on the table and untangled."""
+    s = (np.arange(1, ROPE_SEGMENTS) + 0.5) * SEGMENT
+    for _ in range(500):
+        a, b, c = rng.uniform(-6, 6), rng.uniform(3, 9), rng.uniform(0, 2 * np.pi)
+        bends = (a + b * np.sin(2 * np.pi * s / (ROPE_SEGMENTS * SEGMENT) + c)) * SEGMENT
+        heading = -np.pi / 2 + rng.uniform(-np.pi / 4, np.pi / 4)  # head on the left, pointing right
+        chain = flat_chain(heading, bends)
+        centre = np.array([rng.uniform(-0.05, 0.10), rng.uniform(-0.05, 0.05)])
+        chain += centre - chain.mean(axis=0)
+        span = np.linalg.norm(chain[-1] - chain[0])
+        far = np.linalg.norm(chain[:, None] - chain[None], axis=-1)[np.triu_indices(len(chain), k=3)]
+        inside = np.all((chain >= [REACH[0][0], REACH[1][0]]) & (chain <= [REACH[0][1], REACH[1][1]]))
+        reachable = max(chain[0, 0], chain[-1, 0]) < END_MAX_X
+        if span < 0.38 and far.min() > 0.028 and inside and reachable and chain[0, 1] > chain[-1, 1] + 0.08:
+            return chain[0], heading, bends
+    raise RuntimeError("could not sample a rope shape")

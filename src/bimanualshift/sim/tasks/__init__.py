@@ -1,4 +1,21 @@
 """Importing this package registers every task."""
 
-from bimanualshift.sim.tasks.bimanual import lift_ball, pick_up_plate, push_two_buttons, straighten_rope  # noqa: F401
-from bimanualshift.sim.tasks.unimanual import pick_cube, push_button  # noqa: F401
+from bimanualshift.sim.tasks.bimanual import (  # noqa: F401
+    lift_ball,
+    pick_up_plate,
+    push_two_buttons,
+    straighten_rope,
+    sweep_to_dustpan,
+    take_tray_out_of_oven,
+)
+from bimanualshift.sim.tasks.unimanual import (  # noqa: F401
+    drag_dustpan,
+    open_oven_door,
+    pick_cube,
+    pick_up_small_plate,
+    pull_rope_end,
+    push_button,
+    slide_block,
+    sweep_dirt,
+    take_tray_out_of_open_oven,
+)

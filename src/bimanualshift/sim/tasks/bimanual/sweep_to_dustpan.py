@@ -1,0 +1,52 @@
+"""Sweep to dustpan: one arm holds the dustpan by its handle, the other takes the brush and sweeps five
+pieces of dirt into the pan."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from bimanualshift.sim.motions import hold_dustpan, sweep_into_dustpan, zip_arms
+from bimanualshift.sim.props.sweeping import brush_xml, dirt_in_pan, dirt_xml, dustpan_xml, place_sweep_scene
+from bimanualshift.sim.task import Keyframe, SimHandle, Task, register_task
+
+DIRT = tuple(f"dirt_{i}" for i in range(5))
+PHRASINGS = ("sweep the dirt to the dustpan", "sweep dirt to dustpan", "sweep the dirt into the dustpan",
+             "brush the dirt into the dustpan")
+
+
+@register_task("sweep_to_dustpan")
+class SweepToDustpan(Task):
+    bimanual = True
+
+    def scene_xml(self) -> str:
+        return (dustpan_xml("dustpan") + brush_xml("brush", round_stick=self.perturbations.unseen_shapes)
+                + "".join(dirt_xml(d) for d in DIRT))
+
+    def instance_class(self, instance: str) -> str:
+        return "dirt" if instance.startswith("dirt") else instance
+
+    def initialize_episode(self, sim: SimHandle, rng: np.random.Generator) -> None:
+        place_sweep_scene(sim, rng, "dustpan", "brush", DIRT)
+        pan_colour, brush_colour = self.pick_colours(rng, 2)
+        for g in range(sim.model.ngeom):
+            name = sim.model.geom(g).name
+            if name.startswith(("dustpan_", "brush_")):
+                sim.model.geom_rgba[g, :3] = self.palette[pan_colour if name.startswith("dustpan") else brush_colour]
+        self.episode = {"dustpan_colour": pan_colour, "brush_colour": brush_colour,
+                        "phrasing": int(rng.integers(len(PHRASINGS)))}
+
+    def instruction(self) -> str:
+        return PHRASINGS[self.episode["phrasing"]]
+
+    def goal_nouns(self) -> list[str]:
+        return ["dirt", "dustpan", "brush"]
+
+    def evaluate_success(self, sim: SimHandle) -> bool:
+        return dirt_in_pan(sim, "dustpan", DIRT)
+
+    def expert_keyframes(self, sim: SimHandle) -> list[Keyframe]:
+        # The arm on the dustpan's side holds it; the other sweeps towards it (a mirrored layout swaps them).
+        pan_arm = "left" if sim.body_pos("dustpan")[1] > sim.body_pos("brush")[1] else "right"
+        brush_arm = "right" if pan_arm == "left" else "left"
+        sweep = sweep_into_dustpan(sim, "brush", "dustpan", DIRT)
+        return zip_arms(**{pan_arm: hold_dustpan(sim, "dustpan", len(sweep)), brush_arm: sweep})

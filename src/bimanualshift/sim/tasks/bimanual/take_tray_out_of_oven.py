@@ -1,0 +1,63 @@
+"""Take the tray out of the oven: one arm pulls the oven door open by its handle, the other slides the tray
+out by its tab onto the opened door and lets go."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from bimanualshift.sim.motions import hover, open_oven_door, pull_tray_out, zip_arms
+from bimanualshift.sim.props.oven import PLINTH, TRAY_HALF, oven_frame, oven_xml, place_oven, place_tray, tray_xml
+from bimanualshift.sim.task import Keyframe, SimHandle, Task, register_task
+
+MOUTH_X = (0.04, 0.10)  # where the oven's mouth stands (world x), its centre's y and its turn
+MOUTH_Y = (-0.06, 0.06)
+YAW = np.pi / 8
+PHRASINGS = (
+    "take the tray out of the oven",
+    "take tray out of oven",
+    "remove the tray from the oven",
+    "pull the tray out of the oven",
+    "get the tray out of the oven",
+    "open the oven and take out the tray",
+    "slide the tray out of the oven",
+)
+
+
+@register_task("take_tray_out_of_oven")
+class TakeTrayOutOfOven(Task):
+    bimanual = True
+
+    def scene_xml(self) -> str:
+        return oven_xml("oven") + tray_xml("tray", round_tray=self.perturbations.unseen_shapes)
+
+    def initialize_episode(self, sim: SimHandle, rng: np.random.Generator) -> None:
+        frame = place_oven(sim, rng, "oven", MOUTH_X, MOUTH_Y, YAW)
+        place_tray(sim, frame, "tray", rng.uniform(-0.04, -0.01))  # off-centre: see expert_keyframes
+        colour = self.pick_colours(rng, 1)[0]
+        for g in range(sim.model.ngeom):
+            if sim.model.geom(g).name.startswith("tray_"):
+                sim.model.geom_rgba[g, :3] = self.palette[colour]
+        self.episode = {"colour": colour, "phrasing": int(rng.integers(len(PHRASINGS)))}
+
+    def instruction(self) -> str:
+        return PHRASINGS[self.episode["phrasing"]]
+
+    def goal_nouns(self) -> list[str]:
+        return ["tray", "oven"]
+
+    def evaluate_success(self, sim: SimHandle) -> bool:
+        tray = oven_frame(sim, "oven").to_local(sim.body_pos("tray"))
+        return bool(tray[0] < -TRAY_HALF[0] and not sim.touching_robot("tray"))  # all of it out, let go
+
+    def expert_keyframes(self, sim: SimHandle) -> list[Keyframe]:
+        frame = oven_frame(sim, "oven")
+        # The tray sits off-centre: the arm on its side takes it, the other opens the door from its own side
+        # (so a mirrored layout swaps the roles).
+        door_arm = "left" if frame.to_local(sim.body_pos("tray"))[1] <= 0 else "right"
+        tray_arm = "right" if door_arm == "left" else "left"
+        side = 1.0 if door_arm == "left" else -1.0
+        door = open_oven_door(frame, hook_y=side * 0.04)
+        tray = pull_tray_out(frame, sim.body_pos("tray"))
+        wait = hover(frame, np.array([-0.18, -side * 0.20, PLINTH + 0.40]), 1.0)
+        parked = hover(frame, np.array([-0.22, side * 0.22, PLINTH + 0.40]), 0.0)
+        return zip_arms(**{door_arm: door + [parked] * len(tray), tray_arm: [wait] * len(door) + tray})

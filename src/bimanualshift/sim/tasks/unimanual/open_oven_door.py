@@ -1,0 +1,40 @@
+"""Single arm: open the oven door by pulling its handle down until the door falls open."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from bimanualshift.sim.motions import hover, open_oven_door
+from bimanualshift.sim.props.oven import PLINTH, door_angle, oven_frame, oven_xml, place_oven, place_tray, tray_xml
+from bimanualshift.sim.task import Keyframe, SimHandle, Task, register_task
+
+OPEN_ANGLE = np.deg2rad(70)
+
+
+@register_task("open_oven_door")
+class OpenOvenDoor(Task):
+    bimanual = False
+
+    def scene_xml(self) -> str:
+        return oven_xml("oven") + tray_xml("tray", round_tray=self.perturbations.unseen_shapes)
+
+    def initialize_episode(self, sim: SimHandle, rng: np.random.Generator) -> None:
+        frame = place_oven(sim, rng, "oven", (0.04, 0.10), (-0.06, 0.06), np.pi / 8)
+        place_tray(sim, frame, "tray", rng.uniform(-0.04, 0.04))
+        colour = self.pick_colours(rng, 1)[0]
+        sim.set_rgb("oven_door_panel", self.palette[colour])
+        self.episode = {"colour": colour}
+
+    def instruction(self) -> str:
+        return "open the oven door"
+
+    def goal_nouns(self) -> list[str]:
+        return ["oven"]
+
+    def evaluate_success(self, sim: SimHandle) -> bool:
+        return door_angle(sim, "oven") > OPEN_ANGLE
+
+    def expert_keyframes(self, sim: SimHandle) -> list[Keyframe]:
+        frame = oven_frame(sim, "oven")
+        away = hover(frame, np.array([-0.22, 0.0, PLINTH + 0.40]), 0.0)
+        return [{"right": a} for a in [*open_oven_door(frame, hook_y=0.0), away]]

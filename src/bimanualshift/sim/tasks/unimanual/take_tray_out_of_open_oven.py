@@ -1,0 +1,39 @@
+"""Single arm: the oven stands open; slide the tray out by its tab onto the door and let go."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from bimanualshift.sim.motions import pull_tray_out
+from bimanualshift.sim.props.oven import TRAY_HALF, oven_frame, oven_xml, place_oven, place_tray, tray_xml
+from bimanualshift.sim.task import Keyframe, SimHandle, Task, register_task
+
+
+@register_task("take_tray_out_of_open_oven")
+class TakeTrayOutOfOpenOven(Task):
+    bimanual = False
+
+    def scene_xml(self) -> str:
+        return oven_xml("oven") + tray_xml("tray", round_tray=self.perturbations.unseen_shapes)
+
+    def initialize_episode(self, sim: SimHandle, rng: np.random.Generator) -> None:
+        frame = place_oven(sim, rng, "oven", (0.04, 0.10), (-0.06, 0.06), np.pi / 8, door_angle=np.pi / 2)
+        place_tray(sim, frame, "tray", rng.uniform(-0.04, 0.04))
+        colour = self.pick_colours(rng, 1)[0]
+        for g in range(sim.model.ngeom):
+            if sim.model.geom(g).name.startswith("tray_"):
+                sim.model.geom_rgba[g, :3] = self.palette[colour]
+        self.episode = {"colour": colour}
+
+    def instruction(self) -> str:
+        return "take the tray out of the open oven"
+
+    def goal_nouns(self) -> list[str]:
+        return ["tray"]
+
+    def evaluate_success(self, sim: SimHandle) -> bool:
+        tray = oven_frame(sim, "oven").to_local(sim.body_pos("tray"))
+        return bool(tray[0] < -TRAY_HALF[0] and not sim.touching_robot("tray"))
+
+    def expert_keyframes(self, sim: SimHandle) -> list[Keyframe]:
+        return [{"right": a} for a in pull_tray_out(oven_frame(sim, "oven"), sim.body_pos("tray"))]
