@@ -57,3 +57,14 @@ def test_bad_rates_are_rejected() -> None:
         Degradation(drop=1.5)
     with pytest.raises(ValueError, match=">= 0"):
         Degradation(boundary_px=-1)
+
+
+def test_segmenters_by_name() -> None:
+    from bimanualshift.perception.segmenters import make_segmenter
+    from bimanualshift.perception.segmenters.simulator import SimulatorSegmenter
+
+    assert isinstance(make_segmenter("simulator"), SimulatorSegmenter)
+    strong = make_segmenter("degraded-strong", seed=4)
+    assert isinstance(strong, DegradedSegmenter) and strong.degradation.seed == 4
+    with pytest.raises(ValueError, match="unknown segmenter 'sam3'; choose one of simulator"):
+        make_segmenter("sam3")
