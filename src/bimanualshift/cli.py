@@ -174,6 +174,31 @@ def cmd_video(args: argparse.Namespace) -> None:
         env.close()
 
 
+def cmd_viz_projection(args: argparse.Namespace) -> None:
+    from bimanualshift.data.frames import KeyframeObservation, scene_of_env
+    from bimanualshift.perception.projection import ArmProjection
+    from bimanualshift.perception.segmenters import make_segmenter
+    from bimanualshift.sim.env import ManipulationEnv
+    from bimanualshift.viz.projection_figure import projection_figure
+
+    out = Path(args.out)
+    for task in _resolve_tasks(args.task):
+        env = ManipulationEnv(task, image_size=args.image_size)
+        if not env.task.bimanual:
+            sys.exit(f"error: {task} is a single-arm task; the projection separates two arms")
+        obs, _ = env.reset(seed=args.seed)
+        keyframes = env.expert_keyframes()
+        index = len(keyframes) // 2 if args.keyframe is None else min(args.keyframe, len(keyframes))
+        for keyframe in keyframes[:index]:
+            obs, *_ = env.step(env.action_from_keyframe(keyframe))
+        frame = KeyframeObservation.from_env(obs, scene_of_env(env))
+        projection = ArmProjection(make_segmenter(args.segmenter, seed=args.seed))
+        path = projection_figure(frame, projection, out / f"{task}.png",
+                                 title=f"{task}, seed {args.seed}, keyframe {index}: {env.task.instruction()!r}")
+        print(f"{path} ({args.segmenter} segmenter)")
+        env.close()
+
+
 def cmd_pretrain(args: argparse.Namespace) -> None:
     from bimanualshift.training.pretrain import PretrainConfig, pretrain
 
@@ -272,6 +297,17 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--cameras", nargs="+", default=["front", "overhead"])
     p.add_argument("--perturb", default="none", help="a perturbation preset, e.g. lighting or swap_sides")
     p.set_defaults(func=cmd_snapshot)
+
+    p = sub.add_parser("viz", help="figures: `viz projection` draws the arm-conditioned projection (paper Fig. 3)")
+    viz = p.add_subparsers(dest="figure", required=True)
+    p = viz.add_parser("projection", help="the voxel scene and each arm's projected view, as a PNG per task")
+    p.add_argument("--task", nargs="+", default=["bimanual"], help="bimanual task name(s), or bimanual (default)")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--keyframe", type=int, help="show the scene after this many expert keyframes (default: half)")
+    p.add_argument("--segmenter", default="simulator", help="simulator (default), degraded-mild, degraded-strong")
+    p.add_argument("--image-size", type=int, default=128)
+    p.add_argument("--out", default="docs/img/projection", help="output folder (default: docs/img/projection)")
+    p.set_defaults(func=cmd_viz_projection)
 
     p = sub.add_parser("video", help="record the scripted expert solving each task to MP4 (for the docs)")
     p.add_argument("--task", nargs="+", default=["all"], help="task name(s), or all (default) / bimanual / unimanual")
