@@ -13,9 +13,10 @@ depth and their centroid is compared with the calibrated base positions.
 Hard cases, each with a defined fallback counted in ``ProjectionDiagnostics`` (none raises):
 
 * no arm found in a camera: both arms keep only goal + support there (``no_arm_found``);
-* the two arms merged into one mask (crossing arms; fewer arm candidates than arms, and the candidate's
-  back-projected points lie substantially on both sides of the plane half-way between the bases): the mask
-  is split pixel by pixel, each pixel going to the base on its side (``merged_arms_split``);
+* the two arms merged into one mask (crossing arms: fewer arm candidates than arms, and the candidate's
+  back-projected points lie substantially on both sides of the plane half-way between the bases and near
+  both shoulders): the mask is split pixel by pixel, each pixel going to the base on its side
+  (``merged_arms_split``);
 * goal object not found: the arms keep themselves and the support (``no_goal_found``);
 * missing depth (a camera whose depth is all zero / NaN): that camera contributes nothing to the voxels
   (``missing_depth``); pixels without depth are simply not back-projected, and a mask whose pixels have no
@@ -52,6 +53,7 @@ class ProjectionDiagnostics:
 
 # A candidate counts as two merged arms when at least this fraction of its points lies on each side.
 MERGED_SIDE_FRACTION = 0.2
+MERGED_SHOULDER_RADIUS = 0.3  # metres: a merged mask holds points this close to both shoulders
 
 
 def wrist_owner(camera: str) -> str | None:
@@ -146,6 +148,10 @@ class ArmProjection:
         on_a = (points[..., :2] - middle) @ normal > 0
         fraction_a = float(on_a[usable].mean())
         if min(fraction_a, 1 - fraction_a) < MERGED_SIDE_FRACTION:
+            return None
+        # One arm reaching across the middle is not two arms: a merged mask reaches both shoulders.
+        near = [np.sum(np.linalg.norm(points[usable] - s, axis=-1) < MERGED_SHOULDER_RADIUS) for s in (base_a, base_b)]
+        if min(near) < 10:
             return None
         # Pixels without depth follow the nearer image-plane anchor.
         rows, cols = np.indices(mask.shape)
