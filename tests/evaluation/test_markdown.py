@@ -37,3 +37,18 @@ def test_expert_results_get_their_own_table(tmp_path) -> None:  # noqa: ANN001
     readme.write_text("x\n<!-- results:experts -->\n<!-- /results:experts -->\n")
     assert render_readme(readme, tmp_path / "results") == ["experts"]
     assert "| lift_ball | two | 97.0 % | 90.0–99.0 % | 100 | 3.2 | 4.0 |" in readme.read_text()
+
+
+def test_other_results_get_a_table_of_their_scalar_fields() -> None:
+    from bimanualshift.evaluation.markdown import table_for
+
+    table = table_for({
+        "command": "python benchmarks/collection_speed.py", "commit": "abcdef0123456789", "created": "now",
+        "machine": "m", "wall_time_s": 120, "notes": "n", "seeds": {"train": [0]},
+        "rows": [{"task": "lift_ball", "workers": 1, "episodes_per_min": 6.25, "extra": {"ignored": 1}},
+                 {"task": "lift_ball", "workers": 2, "episodes_per_min": 11.5, "extra": {"ignored": 1}}],
+    })
+    lines = table.splitlines()
+    assert lines[0] == "| task | workers | episodes per min |"
+    assert lines[2:4] == ["| lift_ball | 1 | 6.250 |", "| lift_ball | 2 | 11.500 |"]
+    assert "`python benchmarks/collection_speed.py` at commit `abcdef012345`" in table

@@ -52,3 +52,46 @@ def test_missing_arm_masks_fall_back_to_goal_and_support(bimanual_episode_path: 
     arms = np.isin(obs.instance, [ep.instance_names.index("arm_left"), ep.instance_names.index("arm_right")])
     assert not masks["left"][arms].any()
     assert projection.diagnostics.no_arm_found == len(ep.camera_names)
+
+
+def _arm_pixels(ep, obs, arm: str) -> np.ndarray:  # noqa: ANN001
+    return obs.instance == ep.instance_names.index(f"arm_{arm}")
+
+
+def test_merged_arms_are_split_by_side(bimanual_episode_path: Path) -> None:
+    """A detector that returns both arms as one mask (crossing arms): each arm still keeps itself."""
+    from bimanualshift.perception.segmenters.degraded import Degradation, DegradedSegmenter
+
+    ep = read_episode(bimanual_episode_path)
+    projection = ArmProjection(DegradedSegmenter(SimulatorSegmenter(), Degradation(merge_arms=1.0)))
+    for k in range(ep.num_keyframes):
+        obs = KeyframeObservation.from_episode(ep, k)
+        masks = projection.masks_2d(obs)
+        static = [c for c, name in enumerate(ep.camera_names) if not name.startswith("wrist")]
+        for arm, other in (("left", "right"), ("right", "left")):
+            own, theirs = _arm_pixels(ep, obs, arm)[static], _arm_pixels(ep, obs, other)[static]
+            assert masks[arm][static][own].mean() > 0.9
+            assert masks[arm][static][theirs].mean() < 0.1
+    assert projection.diagnostics.merged_arms_split > 0
+
+
+def test_missing_depth_and_missing_goal_degrade_gracefully(bimanual_episode_path: Path) -> None:
+    class NoGoal(SimulatorSegmenter):
+        def segment(self, view, prompts):  # noqa: ANN001, ANN201
+            return [d for d in super().segment(view, prompts) if d.label == "robotic arm"]
+
+    ep = read_episode(bimanual_episode_path)
+    obs = KeyframeObservation.from_episode(ep, 1)
+    obs.depth = obs.depth.copy()
+    obs.depth[0] = 0.0  # a camera without depth
+    obs.depth[1, :10] = np.nan  # a camera with a band of invalid depth
+    projection = ArmProjection(NoGoal())
+    grid = VoxelGrid((-0.1, -1.0, -0.2, 1.0, 1.0, 0.8), 16)
+    built = ArmObservationBuilder(grid, projection).build(obs)
+    for arm in ep.arm_names:
+        assert np.isfinite(built[arm].voxels).all() and built[arm].voxels[0].sum() > 0
+    masks = projection.masks_2d(obs)
+    goal = np.isin(obs.instance, [i for i, n in enumerate(ep.instance_names) if n.startswith("button")])
+    assert not masks["left"][1:][goal[1:]].any()  # the goal is not kept when it was not found
+    assert projection.diagnostics.missing_depth == 2  # camera 0, once per call
+    assert projection.diagnostics.no_goal_found == 2 * (len(ep.camera_names) - 1)

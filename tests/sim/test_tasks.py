@@ -7,6 +7,7 @@ from collections.abc import Iterator
 import numpy as np
 import pytest
 
+from bimanualshift.perception.goal_nouns import extract_goal_nouns
 from bimanualshift.sim.env import InvalidActionError, ManipulationEnv
 from bimanualshift.sim.task import TASKS, register_task, task_names
 
@@ -88,6 +89,14 @@ def test_expert_succeeds(env: ManipulationEnv, seed: int) -> None:
     for keyframe in env.expert_keyframes():
         env.step(env.action_from_keyframe(keyframe), render=False)
     assert env.success(), f"{env.task.name} expert failed on seed {seed}"
+
+
+def test_goal_nouns_cover_the_instructions_object(env: ManipulationEnv) -> None:
+    """Tasks may add goal nouns (a tray task also needs the oven seen), never drop the instruction's object."""
+    for seed in range(3):
+        env.reset(seed=seed, options={"render": False})
+        instruction = env.task.instruction()
+        assert set(extract_goal_nouns(instruction)) <= set(env.task.goal_nouns()), instruction
 
 
 def test_unknown_task_error() -> None:

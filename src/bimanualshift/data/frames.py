@@ -63,5 +63,9 @@ def scene_of_episode(episode: Episode) -> SceneInfo:
 
 
 def scene_of_env(env: Any) -> SceneInfo:
+    """The current episode's scene description (call after ``reset``: goal nouns follow the instruction)."""
+    if not env.task.episode:
+        raise RuntimeError("reset the environment before describing its scene: the goal nouns come from the "
+                           "episode's instruction")
     return SceneInfo(list(env.camera_names), list(env.arm_names), env.instances.names, env.instances.classes,
                      env.task.goal_nouns(), {arm: list(f.position) for arm, f in env.arm_frames.items()})

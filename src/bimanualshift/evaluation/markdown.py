@@ -43,9 +43,28 @@ def experts_table(result: dict[str, Any]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def generic_table(result: dict[str, Any]) -> str:
+    """Any other result file: one column per scalar field of its rows (timings, projection quality, ...)."""
+    rows = result["rows"]
+    columns = [k for k, v in rows[0].items() if isinstance(v, (str, int, float, bool))] if rows else []
+    lines = ["| " + " | ".join(c.replace("_", " ") for c in columns) + " |", "|" + "---|" * len(columns)]
+    for r in rows:
+        cells = [f"{r[c]:.3f}" if isinstance(r.get(c), float) else str(r.get(c, "")) for c in columns]
+        lines.append("| " + " | ".join(cells) + " |")
+    lines.append("")
+    lines.append(f"Produced by `{result['command']}` at commit `{result['commit'][:12]}` on {result['created']} "
+                 f"({result['machine']}); wall time {result['wall_time_s'] / 60:.1f} min. {result['notes']}.")
+    return "\n".join(lines) + "\n"
+
+
 def table_for(result: dict[str, Any]) -> str:
-    """Expert measurements have no method column; everything else is a success table."""
-    return experts_table(result) if result["rows"] and "bimanual" in result["rows"][0] else success_table(result)
+    """Expert measurements, success rates of methods, or a generic table of whatever the rows hold."""
+    first = result["rows"][0] if result["rows"] else {}
+    if "bimanual" in first:
+        return experts_table(result)
+    if "method" in first and "success" in first:
+        return success_table(result)
+    return generic_table(result)
 
 
 def result_file(results_dir: Path, name: str) -> Path:

@@ -13,7 +13,7 @@ from bimanualshift.geometry.frames import ArmFrame
 from bimanualshift.geometry.voxels import VoxelGrid
 from bimanualshift.perception.observation import ArmObservationBuilder, arm_frames
 from bimanualshift.perception.projection import ArmProjection
-from bimanualshift.perception.segmenters.simulator import SimulatorSegmenter
+from bimanualshift.perception.segmenters import make_segmenter
 from bimanualshift.priors.base import PriorOutput, UnimanualPrior
 from bimanualshift.sim.env import WORKSPACE_HIGH, WORKSPACE_LOW
 
@@ -30,11 +30,12 @@ class ArmStep:
 
 class FrozenPriorStage:
     def __init__(self, prior: UnimanualPrior, text_encoder: TextEncoder, use_projection: bool = True,
-                 max_keyframes: int = 25) -> None:
+                 max_keyframes: int = 25, segmenter: str = "simulator") -> None:
         self.prior = prior.freeze()
         self.text_encoder = text_encoder
         cfg = prior.config
-        projection = ArmProjection(SimulatorSegmenter()) if use_projection else None
+        # The arm-conditioned projection is this stage's observation path; the ablation turns it off.
+        projection = ArmProjection(make_segmenter(segmenter)) if use_projection else None
         self.builder = ArmObservationBuilder(VoxelGrid(tuple(cfg.bounds), cfg.voxel_size), projection)
         self.max_keyframes = max_keyframes
 

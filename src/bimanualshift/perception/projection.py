@@ -10,9 +10,19 @@ Where an anchor falls outside the image (side views, where perspective makes off
 misleading), the same nearest-anchor rule is applied in 3-D: the mask's pixels are back-projected through
 depth and their centroid is compared with the calibrated base positions.
 
-Fallbacks (counted in ``ProjectionDiagnostics``): a camera with no arm mask keeps only goal + support for
-both arms; a camera whose anchors lie behind it (wrist cameras) gives its arm masks to the arm it is
-mounted on, or to nobody if it is a static camera.
+Hard cases, each with a defined fallback counted in ``ProjectionDiagnostics`` (none raises):
+
+* no arm found in a camera: both arms keep only goal + support there (``no_arm_found``);
+* the two arms merged into one mask (crossing arms: fewer arm candidates than arms, and the candidate's
+  back-projected points lie substantially on both sides of the plane half-way between the bases and near
+  both shoulders): the mask is split pixel by pixel, each pixel going to the base on its side
+  (``merged_arms_split``);
+* goal object not found: the arms keep themselves and the support (``no_goal_found``);
+* missing depth (a camera whose depth is all zero / NaN): that camera contributes nothing to the voxels
+  (``missing_depth``); pixels without depth are simply not back-projected, and a mask whose pixels have no
+  depth is assigned with its image-plane centroid (``mask_without_depth``);
+* anchors behind the camera (wrist cameras): arm masks go to the arm the camera is mounted on, or to nobody
+  for a static camera (``anchor_behind_camera``).
 """
 
 from __future__ import annotations
@@ -37,6 +47,13 @@ class ProjectionDiagnostics:
     no_goal_found: int = 0
     anchor_behind_camera: int = 0
     anchor_outside_image: int = 0
+    merged_arms_split: int = 0
+    missing_depth: int = 0
+    mask_without_depth: int = 0
+
+# A candidate counts as two merged arms when at least this fraction of its points lies on each side.
+MERGED_SIDE_FRACTION = 0.2
+MERGED_SHOULDER_RADIUS = 0.3  # metres: a merged mask holds points this close to both shoulders
 
 
 def wrist_owner(camera: str) -> str | None:
@@ -56,6 +73,9 @@ class ArmProjection:
         prompts = [ARM_CLASS, *scene.goal_nouns, SUPPORT_CLASS]
         for c, camera in enumerate(scene.camera_names):
             self.diagnostics.cameras += 1
+            if not np.any(np.isfinite(obs.depth[c]) & (obs.depth[c] > 0)):
+                self.diagnostics.missing_depth += 1  # nothing to back-project: the camera adds no voxels
+                continue
             view = CameraView(obs.rgb[c], obs.instance[c], obs.class_ids[c], scene.class_names)
             detections = self.segmenter.segment(view, prompts)
             shared = np.zeros(obs.depth.shape[1:], dtype=bool)
@@ -90,14 +110,52 @@ class ArmProjection:
         in_view = all(0 <= p[0] < w and 0 <= p[1] < h for p in anchors.values())
         if not in_view:
             self.diagnostics.anchor_outside_image += 1
-            points = depth_to_world_points(obs.depth[c], obs.intrinsics[c], obs.extrinsics[c])
+        depth = obs.depth[c]
+        has_depth = np.isfinite(depth) & (depth > 0)
+        points = depth_to_world_points(np.where(has_depth, depth, 0.0), obs.intrinsics[c], obs.extrinsics[c])
+        shoulders = {a: shoulder_position(obs.scene.arm_bases[a]) for a in arms}
         for mask in arm_masks:
-            if in_view:
+            if len(arms) == 2 and len(arm_masks) < len(arms):
+                split = self._split_if_merged(mask, points, has_depth, shoulders, anchors)
+                if split is not None:
+                    self.diagnostics.merged_arms_split += 1
+                    for arm in arms:
+                        assigned[arm] |= split[arm]
+                    continue
+            usable = mask & has_depth
+            if in_view or not usable.any():
+                if not in_view:
+                    self.diagnostics.mask_without_depth += 1
                 rows, cols = np.nonzero(mask)
                 centroid, targets = np.array([cols.mean(), rows.mean()]), anchors
             else:
-                centroid = points[mask & (obs.depth[c] > 0)].mean(axis=0)
-                targets = {a: shoulder_position(obs.scene.arm_bases[a]) for a in arms}
+                centroid, targets = points[usable].mean(axis=0), shoulders
             nearest = min(arms, key=lambda a: float(np.linalg.norm(centroid - targets[a])))
             assigned[nearest] |= mask
         return assigned
+
+    @staticmethod
+    def _split_if_merged(mask: np.ndarray, points: np.ndarray, has_depth: np.ndarray,
+                         shoulders: dict[str, np.ndarray], anchors: dict[str, np.ndarray | None]
+                         ) -> dict[str, np.ndarray] | None:
+        """Pixel-wise nearest-base split of a mask that holds both arms, or None if it holds one."""
+        (arm_a, base_a), (arm_b, base_b) = shoulders.items()
+        normal = (base_a - base_b)[:2]
+        middle = (base_a + base_b)[:2] / 2
+        usable = mask & has_depth
+        if usable.sum() < 20:
+            return None
+        on_a = (points[..., :2] - middle) @ normal > 0
+        fraction_a = float(on_a[usable].mean())
+        if min(fraction_a, 1 - fraction_a) < MERGED_SIDE_FRACTION:
+            return None
+        # One arm reaching across the middle is not two arms: a merged mask reaches both shoulders.
+        near = [np.sum(np.linalg.norm(points[usable] - s, axis=-1) < MERGED_SHOULDER_RADIUS) for s in (base_a, base_b)]
+        if min(near) < 10:
+            return None
+        # Pixels without depth follow the nearer image-plane anchor.
+        rows, cols = np.indices(mask.shape)
+        uv = np.stack([cols, rows], axis=-1).astype(float)
+        nearer_a = np.linalg.norm(uv - anchors[arm_a], axis=-1) < np.linalg.norm(uv - anchors[arm_b], axis=-1)
+        side_a = np.where(has_depth, on_a, nearer_a)
+        return {arm_a: mask & side_a, arm_b: mask & ~side_a}

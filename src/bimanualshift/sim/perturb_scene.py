@@ -22,10 +22,13 @@ def apply_to_model(model: mujoco.MjModel, p: Perturbations) -> None:
         model.vis.headlight.diffuse[:] = np.asarray(model.vis.headlight.diffuse) * dim * warm
         model.vis.headlight.ambient[:] = np.asarray(model.vis.headlight.ambient) * dim * warm
     if p.glare:
+        # Over-bright lights with full specular highlights: shiny surfaces burn out to white in places.
+        model.light_diffuse[:] = np.clip(model.light_diffuse * 2.2, 0.0, 3.0)
         model.light_specular[:] = 1.0
         model.vis.headlight.specular[:] = 1.0
         model.mat_specular[:] = 1.0
         model.mat_shininess[:] = 1.0
+        model.mat_reflectance[:] = np.maximum(model.mat_reflectance, 0.3)
     if p.table_texture:
         for g in range(model.ngeom):
             body = model.body(int(model.body_rootid[model.geom_bodyid[g]])).name

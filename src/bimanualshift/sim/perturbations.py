@@ -6,7 +6,7 @@ An environment is built with one ``Perturbations``; what it changes:
 * ``unseen_shapes`` — tasks build their objects with another shape (square caps, cubic ball, square plate...).
 * ``lighting`` — light colour and intensity changed by this fraction (0.5 = dimmer, warm light).
 * ``table_texture`` — a checkerboard table top and a dark floor instead of the plain ones.
-* ``glare`` — a strong specular light behind the front camera and shiny objects.
+* ``glare`` — over-bright lights, full specular highlights and reflective materials (burnt-out highlights).
 * ``camera_shift_m`` / ``camera_rotate_deg`` — every static camera moved and turned by up to this much
   (seeded by ``seed``); the observation's extrinsics describe the moved cameras.
 * ``swap_sides`` — the task layout mirrored left to right (y -> -y), so each arm faces the other's job.

@@ -156,9 +156,12 @@ class Task(ABC):
     @abstractmethod
     def instruction(self) -> str: ...
 
-    @abstractmethod
     def goal_nouns(self) -> list[str]:
-        """Object categories the instruction is about (what a segmenter is prompted with)."""
+        """Object categories the instruction is about (what a segmenter is prompted with): by default the
+        direct objects found by ``perception.goal_nouns``' rules; a task overrides this to add context."""
+        from bimanualshift.perception.goal_nouns import extract_goal_nouns
+
+        return extract_goal_nouns(self.instruction())
 
     @abstractmethod
     def expert_keyframes(self, sim: SimHandle) -> list[Keyframe]:

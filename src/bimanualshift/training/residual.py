@@ -46,6 +46,7 @@ class TrainConfig:
     beta: float = 1.0  # weight of the rotation term in L_BC (Eq. 12)
     checkpoint_every: int = 250
     use_projection: bool = True
+    segmenter: str = "simulator"  # simulator | grounded_sam | degraded-mild | degraded-strong
     structured: bool = True
     augment_copies: int = 0  # shifted copies of every demo keyframe, each through the frozen prior
     augment_max_voxels: int = 2
@@ -128,7 +129,7 @@ def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Pat
     atomic_write_json(out / "train_config.json", asdict(cfg))
     text_encoder = default_text_encoder()
     prior = prior if prior is not None else UnimanualPrior.from_pretrained(cfg.prior)
-    stage = FrozenPriorStage(prior, text_encoder, use_projection=cfg.use_projection)
+    stage = FrozenPriorStage(prior, text_encoder, use_projection=cfg.use_projection, segmenter=cfg.segmenter)
     paths = list_episodes(cfg.data, cfg.task)[: cfg.demos]
     if not paths:
         raise FileNotFoundError(f"no bimanual demos for {cfg.task} under {cfg.data}; run "
@@ -141,8 +142,8 @@ def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Pat
     rcfg = ResidualConfig(feature_dim=prior.feature_dim, text_dim=text_encoder.dim, structured=cfg.structured)
     residual = ResidualPolicy(rcfg, SkillBasis.from_verbs(text_encoder))
     optimizer = make_lamb(residual.parameters(), lr=cfg.lr)
-    checkpoint_meta = {"prior": cfg.prior,
-                       "use_projection": cfg.use_projection, "task": cfg.task, "demos": len(paths),
+    checkpoint_meta = {"prior": cfg.prior, "use_projection": cfg.use_projection, "segmenter": cfg.segmenter,
+                       "task": cfg.task, "demos": len(paths),
                        "text_encoder": getattr(text_encoder, "name", "custom")}
 
     def step_fn(step: int, gen: torch.Generator) -> dict[str, torch.Tensor]:

@@ -32,9 +32,6 @@ class LiftBall(Task):
     def instruction(self) -> str:
         return "lift the ball"
 
-    def goal_nouns(self) -> list[str]:
-        return ["ball"]
-
     def evaluate_success(self, sim: SimHandle) -> bool:
         return bool(sim.body_pos("ball")[2] > TABLE_TOP_Z + BALL_RADIUS + LIFTED_BY)
 

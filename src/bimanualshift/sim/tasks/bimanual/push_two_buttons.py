@@ -48,9 +48,6 @@ class PushTwoButtons(Task):
         a, b = self.episode["named"]
         return f"push the {c[a]} and the {c[b]} buttons"
 
-    def goal_nouns(self) -> list[str]:
-        return ["button"]
-
     def on_control_step(self, sim: SimHandle) -> None:
         for i, name in enumerate(BUTTONS):
             if button_travel(sim, name) >= BUTTON_PRESSED_AT:

@@ -62,9 +62,6 @@ class StraightenRope(Task):
     def instruction(self) -> str:
         return PHRASINGS[self.episode["phrasing"]]
 
-    def goal_nouns(self) -> list[str]:
-        return ["rope"]
-
     def evaluate_success(self, sim: SimHandle) -> bool:
         head, tail = rope_ends(sim, "rope")
         near = [np.linalg.norm(end[:2] - sim.body_pos(target)[:2]) < TARGET_RADIUS

@@ -28,9 +28,6 @@ class OpenOvenDoor(Task):
     def instruction(self) -> str:
         return "open the oven door"
 
-    def goal_nouns(self) -> list[str]:
-        return ["oven"]
-
     def evaluate_success(self, sim: SimHandle) -> bool:
         return door_angle(sim, "oven") > OPEN_ANGLE
 

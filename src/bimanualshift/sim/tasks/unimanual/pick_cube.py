@@ -37,9 +37,6 @@ class PickCube(Task):
     def instruction(self) -> str:
         return f"pick up the {self.episode['colours'][self.episode['target']]} cube"
 
-    def goal_nouns(self) -> list[str]:
-        return ["cube"]
-
     def evaluate_success(self, sim: SimHandle) -> bool:
         z = sim.body_pos(CUBES[self.episode["target"]])[2]
         return bool(z > TABLE_TOP_Z + CUBE_HALF + LIFTED_BY)

@@ -35,9 +35,6 @@ class PickUpSmallPlate(Task):
     def instruction(self) -> str:
         return "pick up the plate"
 
-    def goal_nouns(self) -> list[str]:
-        return ["plate"]
-
     def evaluate_success(self, sim: SimHandle) -> bool:
         return bool(sim.body_pos("plate")[2] > TABLE_TOP_Z + LIFTED_BY)
 

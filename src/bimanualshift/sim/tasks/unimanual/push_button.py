@@ -39,9 +39,6 @@ class PushButton(Task):
     def instruction(self) -> str:
         return f"push the {self.episode['colours'][self.episode['target']]} button"
 
-    def goal_nouns(self) -> list[str]:
-        return ["button"]
-
     def on_control_step(self, sim: SimHandle) -> None:
         if button_travel(sim, BUTTONS[self.episode["target"]]) >= BUTTON_PRESSED_AT:
             self.episode["pressed"] = True

@@ -28,9 +28,6 @@ class TakeTrayOutOfOpenOven(Task):
     def instruction(self) -> str:
         return "take the tray out of the open oven"
 
-    def goal_nouns(self) -> list[str]:
-        return ["tray"]
-
     def evaluate_success(self, sim: SimHandle) -> bool:
         tray = oven_frame(sim, "oven").to_local(sim.body_pos("tray"))
         return bool(tray[0] < -TRAY_HALF[0] and not sim.touching_robot("tray"))

@@ -1,0 +1,1 @@
+"""Figures: pictures of what the method sees and does."""

@@ -1,0 +1,39 @@
+import pytest
+
+from bimanualshift.perception.goal_nouns import extract_goal_nouns, singular
+
+
+@pytest.mark.parametrize(("instruction", "nouns"), [
+    ("push the red and the blue buttons", ["button"]),
+    ("Push the maroon and the olive buttons.", ["button"]),
+    ("take the tray out of the oven", ["tray"]),
+    ("take tray out of oven", ["tray"]),
+    ("open the oven and take out the tray", ["oven", "tray"]),
+    ("pick up the plate", ["plate"]),
+    ("lift the ball", ["ball"]),
+    ("pull the rope straight", ["rope"]),
+    ("pull both ends of the rope apart", ["rope"]),
+    ("lay the rope out straight", ["rope"]),
+    ("stretch the rope between the two targets", ["rope"]),
+    ("sweep the dirt to the dustpan", ["dirt"]),
+    ("brush the dirt into the dustpan", ["dirt"]),
+    ("open the oven door", ["oven"]),
+    ("slide the gold block onto the target", ["block"]),
+    ("pick up the cup and the spoon", ["cup", "spoon"]),
+    ("stack the boxes", ["box"]),
+    ("put the knives in the drawer", ["knife"]),
+])
+def test_rules_find_the_direct_object(instruction: str, nouns: list[str]) -> None:
+    assert extract_goal_nouns(instruction) == nouns
+
+
+def test_singular_keeps_uncountable_and_short_words() -> None:
+    assert [singular(w) for w in ("buttons", "brushes", "berries", "dirt", "glass", "bus")] == \
+        ["button", "brush", "berry", "dirt", "glass", "bus"]
+
+
+def test_no_noun_is_a_clear_error() -> None:
+    with pytest.raises(ValueError, match="no goal noun found"):
+        extract_goal_nouns("push the red")
+    with pytest.raises(ValueError, match="no words"):
+        extract_goal_nouns("!!")
