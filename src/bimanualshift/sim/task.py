@@ -103,6 +103,12 @@ class SimHandle:
     def set_rgb(self, geom: str, rgb: tuple[float, float, float]) -> None:
         self.model.geom_rgba[self.geom_id(geom), :3] = rgb
 
+    def set_rgb_prefix(self, prefix: str, rgb: tuple[float, float, float]) -> None:
+        """Colour every geom whose name starts with ``prefix`` (all parts of one object)."""
+        for g in range(self.model.ngeom):
+            if self.model.geom(g).name.startswith(prefix):
+                self.model.geom_rgba[g, :3] = rgb
+
     def body_pos(self, name: str) -> np.ndarray:
         return self.data.xpos[self.body_id(name)].copy()
 

@@ -27,9 +27,7 @@ class PickUpPlate(Task):
         yaw = rng.uniform(-np.pi / 8, np.pi / 8)
         sim.set_free_pose("plate_joint", np.r_[xy, TABLE_TOP_Z], Rotation.from_euler("z", yaw).as_quat())
         colour = self.pick_colours(rng, 1)[0]
-        for g in range(sim.model.ngeom):
-            if sim.model.geom(g).name.startswith("plate_"):
-                sim.model.geom_rgba[g, :3] = self.palette[colour]
+        sim.set_rgb_prefix("plate_", self.palette[colour])
         self.episode = {"colour": colour}
 
     def instruction(self) -> str:

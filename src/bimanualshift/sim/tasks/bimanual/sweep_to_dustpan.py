@@ -28,10 +28,8 @@ class SweepToDustpan(Task):
     def initialize_episode(self, sim: SimHandle, rng: np.random.Generator) -> None:
         place_sweep_scene(sim, rng, "dustpan", "brush", DIRT)
         pan_colour, brush_colour = self.pick_colours(rng, 2)
-        for g in range(sim.model.ngeom):
-            name = sim.model.geom(g).name
-            if name.startswith(("dustpan_", "brush_")):
-                sim.model.geom_rgba[g, :3] = self.palette[pan_colour if name.startswith("dustpan") else brush_colour]
+        sim.set_rgb_prefix("dustpan_", self.palette[pan_colour])
+        sim.set_rgb_prefix("brush_", self.palette[brush_colour])
         self.episode = {"dustpan_colour": pan_colour, "brush_colour": brush_colour,
                         "phrasing": int(rng.integers(len(PHRASINGS)))}
 

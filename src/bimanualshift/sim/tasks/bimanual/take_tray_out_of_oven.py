@@ -34,9 +34,7 @@ class TakeTrayOutOfOven(Task):
         frame = place_oven(sim, rng, "oven", MOUTH_X, MOUTH_Y, YAW)
         place_tray(sim, frame, "tray", rng.uniform(-0.04, -0.01))  # off-centre: see expert_keyframes
         colour = self.pick_colours(rng, 1)[0]
-        for g in range(sim.model.ngeom):
-            if sim.model.geom(g).name.startswith("tray_"):
-                sim.model.geom_rgba[g, :3] = self.palette[colour]
+        sim.set_rgb_prefix("tray_", self.palette[colour])
         self.episode = {"colour": colour, "phrasing": int(rng.integers(len(PHRASINGS)))}
 
     def instruction(self) -> str:

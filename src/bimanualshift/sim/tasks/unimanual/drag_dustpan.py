@@ -36,9 +36,7 @@ class DragDustpan(Task):
         target = centre[:2] + rng.uniform(*SHIFT) * np.array([np.cos(angle), np.sin(angle)])
         sim.model.body_pos[sim.body_id("target")] = (*target, TABLE_TOP_Z)
         colour = self.pick_colours(rng, 1)[0]
-        for g in range(sim.model.ngeom):
-            if sim.model.geom(g).name.startswith("dustpan_"):
-                sim.model.geom_rgba[g, :3] = self.palette[colour]
+        sim.set_rgb_prefix("dustpan_", self.palette[colour])
         self.episode = {"colour": colour}
 
     def instruction(self) -> str:

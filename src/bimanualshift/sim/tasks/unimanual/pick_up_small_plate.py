@@ -27,9 +27,7 @@ class PickUpSmallPlate(Task):
         turn = Rotation.from_euler("z", rng.uniform(0, np.pi))
         sim.set_free_pose("plate_joint", np.r_[xy, TABLE_TOP_Z], turn.as_quat())
         colour = self.pick_colours(rng, 1)[0]
-        for g in range(sim.model.ngeom):
-            if sim.model.geom(g).name.startswith("plate_"):
-                sim.model.geom_rgba[g, :3] = self.palette[colour]
+        sim.set_rgb_prefix("plate_", self.palette[colour])
         self.episode = {"colour": colour}
 
     def instruction(self) -> str:

@@ -25,9 +25,7 @@ class SweepDirt(Task):
     def initialize_episode(self, sim: SimHandle, rng: np.random.Generator) -> None:
         place_sweep_scene(sim, rng, "dustpan", "brush", DIRT)
         colour = self.pick_colours(rng, 1)[0]
-        for g in range(sim.model.ngeom):
-            if sim.model.geom(g).name.startswith("brush_"):
-                sim.model.geom_rgba[g, :3] = self.palette[colour]
+        sim.set_rgb_prefix("brush_", self.palette[colour])
         self.episode = {"colour": colour}
 
     def instruction(self) -> str:

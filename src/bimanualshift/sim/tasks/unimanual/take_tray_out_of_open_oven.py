@@ -20,9 +20,7 @@ class TakeTrayOutOfOpenOven(Task):
         frame = place_oven(sim, rng, "oven", (0.04, 0.10), (-0.06, 0.06), np.pi / 8, door_angle=np.pi / 2)
         place_tray(sim, frame, "tray", rng.uniform(-0.04, 0.04))
         colour = self.pick_colours(rng, 1)[0]
-        for g in range(sim.model.ngeom):
-            if sim.model.geom(g).name.startswith("tray_"):
-                sim.model.geom_rgba[g, :3] = self.palette[colour]
+        sim.set_rgb_prefix("tray_", self.palette[colour])
         self.episode = {"colour": colour}
 
     def instruction(self) -> str:
