@@ -95,3 +95,23 @@ def test_missing_depth_and_missing_goal_degrade_gracefully(bimanual_episode_path
     assert not masks["left"][1:][goal[1:]].any()  # the goal is not kept when it was not found
     assert projection.diagnostics.missing_depth == 2  # camera 0, once per call
     assert projection.diagnostics.no_goal_found == 2 * (len(ep.camera_names) - 1)
+
+
+def test_voxel_masks_are_the_voxels_of_each_arms_kept_pixels(bimanual_episode_path: Path) -> None:
+    from bimanualshift.perception.observation import arm_frames, world_point_cloud
+
+    ep = read_episode(bimanual_episode_path)
+    obs = KeyframeObservation.from_episode(ep, 1)
+    grid = VoxelGrid((0.2, -0.45, -0.15, 0.9, 0.45, 0.35), 24)
+    frames = arm_frames(obs)
+    projection = ArmProjection(SimulatorSegmenter())
+    masks3d = projection.voxel_masks(obs, grid, {arm: f.world_to_base for arm, f in frames.items()})
+    masks2d = projection.masks_2d(obs)
+    points, colours = world_point_cloud(obs)
+    for arm, frame in frames.items():
+        keep = (obs.depth > 0) & masks2d[arm]
+        expected = grid.voxelize(frame.points_to_arm(points[keep]), colours[keep])[0] > 0
+        assert masks3d[arm].shape == (24, 24, 24) and masks3d[arm].sum() > 50
+        # Equal up to float32 rounding of points that lie on a voxel boundary.
+        assert np.count_nonzero(masks3d[arm] != expected) <= max(2, 0.005 * expected.sum())
+    assert not np.array_equal(masks3d["left"], masks3d["right"])

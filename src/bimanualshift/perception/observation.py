@@ -9,6 +9,7 @@ import numpy as np
 from bimanualshift.data.frames import KeyframeObservation
 from bimanualshift.geometry.cameras import depth_to_world_points
 from bimanualshift.geometry.frames import ArmFrame
+from bimanualshift.geometry.pixel_voxels import pixel_voxel_index, voxel_occupancy, voxelize_pixels
 from bimanualshift.geometry.voxels import VoxelGrid
 from bimanualshift.perception.projection import ArmProjection
 
@@ -41,22 +42,25 @@ def proprio_in_arm_frame(proprio_world: np.ndarray, frame: ArmFrame) -> np.ndarr
 
 
 class ArmObservationBuilder:
-    """Builds each arm's voxel observation, through the arm-conditioned projection when one is given."""
+    """Builds each arm's voxel observation, through the arm-conditioned projection when one is given.
+
+    With a projection, an arm's observation is V * M_3D (Eq. 1): the voxelised scene in the arm's frame, with
+    every voxel that none of the arm's kept pixels (itself, the goal, the support) falls in set to zero.
+    """
 
     def __init__(self, grid: VoxelGrid, projection: ArmProjection | None = None) -> None:
         self.grid = grid
         self.projection = projection
 
     def build(self, obs: KeyframeObservation) -> dict[str, ArmObservation]:
-        points, colors = world_point_cloud(obs)
-        valid = obs.depth > 0
         masks = self.projection.masks_2d(obs) if self.projection else None
         out = {}
         n = len(obs.scene.arm_names)
         for i, (arm, frame) in enumerate(arm_frames(obs).items()):
-            keep = valid & masks[arm] if masks is not None else valid
-            pts = frame.points_to_arm(points[keep])
+            index = pixel_voxel_index(obs.depth, obs.intrinsics, obs.extrinsics, self.grid, frame.world_to_base)
+            voxels = voxelize_pixels(index, obs.rgb, self.grid.size)
+            if masks is not None:
+                voxels *= voxel_occupancy(index, masks[arm], self.grid.size)
             other = proprio_in_arm_frame(obs.proprio[1 - i], frame) if n == 2 else np.zeros(8, np.float32)
-            out[arm] = ArmObservation(self.grid.voxelize(pts, colors[keep]),
-                                      proprio_in_arm_frame(obs.proprio[i], frame), other)
+            out[arm] = ArmObservation(voxels, proprio_in_arm_frame(obs.proprio[i], frame), other)
         return out

@@ -32,7 +32,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from bimanualshift.data.frames import KeyframeObservation
-from bimanualshift.geometry.cameras import depth_to_world_points
+from bimanualshift.geometry.pixel_voxels import pixel_voxel_index, voxel_occupancy, world_rays
+from bimanualshift.geometry.voxels import VoxelGrid
 from bimanualshift.perception.anchors import base_anchors, shoulder_position
 from bimanualshift.perception.segmenters.base import CameraView, Segmenter
 from bimanualshift.sim.segmentation import ARM_CLASS
@@ -60,10 +61,44 @@ def wrist_owner(camera: str) -> str | None:
     return camera.removeprefix("wrist_") if camera.startswith("wrist_") else None
 
 
+class CameraPoints:
+    """Back-projects chosen pixels of one camera to world points, through rays cached per camera pose."""
+
+    def __init__(self, obs: KeyframeObservation, c: int) -> None:
+        h, w = obs.depth.shape[1:]
+        rays, origins = world_rays(obs.intrinsics[c:c + 1], obs.extrinsics[c:c + 1], h, w)
+        self.rays, self.origin, self.depth = rays[:, 0], origins[:, 0, 0, 0], obs.depth[c]
+
+    def at(self, mask: np.ndarray) -> np.ndarray:
+        """World points (N, 3) of the pixels of ``mask``, in row-major order."""
+        return self.origin + self.depth[mask][:, None] * self.rays[:, mask].T
+
+    def centroid(self, mask: np.ndarray) -> np.ndarray:
+        """Mean world point of the pixels of ``mask`` (which must all have depth), as one mat-vec product."""
+        weights = np.where(mask, self.depth, np.float32(0.0)).ravel()
+        return self.origin + self.rays.reshape(3, -1) @ weights / np.count_nonzero(mask)
+
+
 class ArmProjection:
     def __init__(self, segmenter: Segmenter) -> None:
         self.segmenter = segmenter
         self.diagnostics = ProjectionDiagnostics()
+        self._anchor_cache: dict[tuple, dict[str, np.ndarray | None]] = {}
+
+    def voxel_masks(self, obs: KeyframeObservation, grid: VoxelGrid,
+                    world_to_frame: dict[str, np.ndarray] | None = None) -> dict[str, np.ndarray]:
+        """M_3D per arm (Eq. 1): the (S, S, S) voxels of ``grid`` that the arm's kept pixels fall in.
+
+        ``world_to_frame`` gives, per arm, the 4x4 transform into the frame the grid is expressed in (an
+        arm-centric grid); by default the grid is in world coordinates.
+        """
+        masks = self.masks_2d(obs)
+        out = {}
+        for arm, mask in masks.items():
+            transform = None if world_to_frame is None else world_to_frame[arm]
+            index = pixel_voxel_index(obs.depth, obs.intrinsics, obs.extrinsics, grid, transform)
+            out[arm] = voxel_occupancy(index, mask, grid.size)
+        return out
 
     def masks_2d(self, obs: KeyframeObservation) -> dict[str, np.ndarray]:
         """Per arm, a (C, H, W) boolean mask of the pixels that arm's observation keeps."""
@@ -71,9 +106,10 @@ class ArmProjection:
         arms = scene.arm_names
         out = {arm: np.zeros(obs.depth.shape, dtype=bool) for arm in arms}
         prompts = [ARM_CLASS, *scene.goal_nouns, SUPPORT_CLASS]
+        has_depth = obs.depth > 0  # False for NaN too
         for c, camera in enumerate(scene.camera_names):
             self.diagnostics.cameras += 1
-            if not np.any(np.isfinite(obs.depth[c]) & (obs.depth[c] > 0)):
+            if not has_depth[c].any():
                 self.diagnostics.missing_depth += 1  # nothing to back-project: the camera adds no voxels
                 continue
             view = CameraView(obs.rgb[c], obs.instance[c], obs.class_ids[c], scene.class_names)
@@ -89,16 +125,28 @@ class ArmProjection:
                 self.diagnostics.no_goal_found += 1
             if not arm_masks:
                 self.diagnostics.no_arm_found += 1
-            for arm, mask in self.assign_arms(arm_masks, obs, c, camera).items():
-                out[arm][c] = mask | shared
+            for arm, mask in self.assign_arms(arm_masks, obs, c, camera, has_depth[c]).items():
+                np.logical_or(mask, shared, out=out[arm][c])
         return out
 
-    def assign_arms(self, arm_masks: list[np.ndarray], obs: KeyframeObservation, c: int, camera: str
-                    ) -> dict[str, np.ndarray]:
+    def _anchors(self, obs: KeyframeObservation, c: int) -> dict[str, np.ndarray | None]:
+        """Image-plane base anchors of camera c, cached: they change only when the camera or a base moves."""
+        bases = {a: obs.scene.arm_bases[a] for a in obs.scene.arm_names}
+        key = (obs.intrinsics[c].tobytes(), obs.extrinsics[c].tobytes(), repr(bases))
+        if key not in self._anchor_cache:
+            if len(self._anchor_cache) > 256:
+                self._anchor_cache.clear()
+            self._anchor_cache[key] = base_anchors(bases, obs.intrinsics[c], obs.extrinsics[c])
+        return self._anchor_cache[key]
+
+    def assign_arms(self, arm_masks: list[np.ndarray], obs: KeyframeObservation, c: int, camera: str,
+                    has_depth: np.ndarray) -> dict[str, np.ndarray]:
         """Eq. 2: each candidate arm mask goes to the arm whose base anchor is nearest to its centroid."""
         arms = obs.scene.arm_names
         assigned = {arm: np.zeros(obs.depth.shape[1:], dtype=bool) for arm in arms}
-        anchors = base_anchors({a: obs.scene.arm_bases[a] for a in arms}, obs.intrinsics[c], obs.extrinsics[c])
+        if not arm_masks:
+            return assigned
+        anchors = self._anchors(obs, c)
         h, w = obs.depth.shape[1:]
         if any(p is None for p in anchors.values()):
             self.diagnostics.anchor_behind_camera += 1
@@ -110,9 +158,7 @@ class ArmProjection:
         in_view = all(0 <= p[0] < w and 0 <= p[1] < h for p in anchors.values())
         if not in_view:
             self.diagnostics.anchor_outside_image += 1
-        depth = obs.depth[c]
-        has_depth = np.isfinite(depth) & (depth > 0)
-        points = depth_to_world_points(np.where(has_depth, depth, 0.0), obs.intrinsics[c], obs.extrinsics[c])
+        points = CameraPoints(obs, c)
         shoulders = {a: shoulder_position(obs.scene.arm_bases[a]) for a in arms}
         for mask in arm_masks:
             if len(arms) == 2 and len(arm_masks) < len(arms):
@@ -129,13 +175,13 @@ class ArmProjection:
                 rows, cols = np.nonzero(mask)
                 centroid, targets = np.array([cols.mean(), rows.mean()]), anchors
             else:
-                centroid, targets = points[usable].mean(axis=0), shoulders
+                centroid, targets = points.centroid(usable), shoulders
             nearest = min(arms, key=lambda a: float(np.linalg.norm(centroid - targets[a])))
             assigned[nearest] |= mask
         return assigned
 
     @staticmethod
-    def _split_if_merged(mask: np.ndarray, points: np.ndarray, has_depth: np.ndarray,
+    def _split_if_merged(mask: np.ndarray, points: CameraPoints, has_depth: np.ndarray,
                          shoulders: dict[str, np.ndarray], anchors: dict[str, np.ndarray | None]
                          ) -> dict[str, np.ndarray] | None:
         """Pixel-wise nearest-base split of a mask that holds both arms, or None if it holds one."""
@@ -145,17 +191,19 @@ class ArmProjection:
         usable = mask & has_depth
         if usable.sum() < 20:
             return None
-        on_a = (points[..., :2] - middle) @ normal > 0
-        fraction_a = float(on_a[usable].mean())
+        pts = points.at(usable)
+        on_a_usable = (pts[:, :2] - middle) @ normal > 0
+        fraction_a = float(on_a_usable.mean())
         if min(fraction_a, 1 - fraction_a) < MERGED_SIDE_FRACTION:
             return None
         # One arm reaching across the middle is not two arms: a merged mask reaches both shoulders.
-        near = [np.sum(np.linalg.norm(points[usable] - s, axis=-1) < MERGED_SHOULDER_RADIUS) for s in (base_a, base_b)]
+        near = [np.sum(np.linalg.norm(pts - s, axis=-1) < MERGED_SHOULDER_RADIUS) for s in (base_a, base_b)]
         if min(near) < 10:
             return None
-        # Pixels without depth follow the nearer image-plane anchor.
+        # Pixels with depth go to the side of the plane they lie on; those without follow the nearer
+        # image-plane anchor.
         rows, cols = np.indices(mask.shape)
         uv = np.stack([cols, rows], axis=-1).astype(float)
-        nearer_a = np.linalg.norm(uv - anchors[arm_a], axis=-1) < np.linalg.norm(uv - anchors[arm_b], axis=-1)
-        side_a = np.where(has_depth, on_a, nearer_a)
+        side_a = np.linalg.norm(uv - anchors[arm_a], axis=-1) < np.linalg.norm(uv - anchors[arm_b], axis=-1)
+        side_a[usable] = on_a_usable
         return {arm_a: mask & side_a, arm_b: mask & ~side_a}

@@ -19,14 +19,14 @@ class SimulatorSegmenter:
     def segment(self, view: CameraView, prompts: list[str]) -> list[Detection]:
         if view.instance is None or view.class_ids is None or view.class_names is None:
             raise ValueError("SimulatorSegmenter needs the renderer's instance and class maps in the CameraView")
+        # One pass over the image: the pixel count of every (class, instance) pair present.
+        n_inst = int(view.instance.max()) + 1
+        pair = view.class_ids.astype(np.int32) * n_inst + view.instance
+        counts = np.bincount(pair.ravel(), minlength=len(view.class_names) * n_inst).reshape(-1, n_inst)
         detections = []
         for prompt in prompts:
             if prompt not in view.class_names:
                 continue
-            cls = view.class_names.index(prompt)
-            in_class = view.class_ids == cls
-            for inst in np.unique(view.instance[in_class]):
-                mask = in_class & (view.instance == inst)
-                if mask.sum() >= self.min_pixels:
-                    detections.append(Detection(mask, ARM_CLASS if prompt == ARM_CLASS else prompt, 1.0))
+            for inst in np.flatnonzero(counts[view.class_names.index(prompt)] >= self.min_pixels):
+                detections.append(Detection(view.instance == inst, ARM_CLASS if prompt == ARM_CLASS else prompt, 1.0))
         return detections
