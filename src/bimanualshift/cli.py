@@ -72,15 +72,12 @@ def _config_from_args(config_cls: type, args: argparse.Namespace):  # noqa: ANN2
 def _resolve_tasks(requested: list[str]) -> list[str]:
     """Task names from --task: registered names, 'all', 'bimanual' or 'unimanual'; exits with the list of
     choices otherwise."""
-    from bimanualshift.sim.task import task_names
+    from bimanualshift.sim.task import resolve_task_names
 
-    known = task_names()
-    groups = {"all": known, "bimanual": task_names(bimanual=True), "unimanual": task_names(bimanual=False)}
-    tasks = [t for name in requested for t in groups.get(name, [name])]
-    bad = [t for t in tasks if t not in known]
-    if bad:
-        sys.exit(f"error: unknown task(s) {bad}; choose from {known}, or all / bimanual / unimanual")
-    return tasks
+    try:
+        return resolve_task_names(requested)
+    except ValueError as err:
+        sys.exit(f"error: {err}")
 
 
 def cmd_tasks(args: argparse.Namespace) -> None:

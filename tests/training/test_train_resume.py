@@ -9,7 +9,6 @@ import pytest
 import torch
 from safetensors.torch import load_file
 
-from bimanualshift.configs import PRIOR_MODELS
 from bimanualshift.encoders.text import default_text_encoder
 from bimanualshift.evaluation.rollout import rollout
 from bimanualshift.methods.bimanualshift import load_bimanualshift
@@ -20,9 +19,10 @@ from bimanualshift.training.pretrain import PretrainConfig, pretrain
 from bimanualshift.training.residual import TrainConfig, train_residual
 
 
-def pretrain_cfg(root: Path, out: Path, steps: int) -> PretrainConfig:
-    return PretrainConfig(data=str(root / "unimanual"), validation_data=str(root / "unimanual"), out=str(out),
-                          steps=steps, checkpoint_every=2, model=PRIOR_MODELS["debug"])
+def pretrain_cfg(root: Path, out: Path, steps: int, prior: str = "peract") -> PretrainConfig:
+    return PretrainConfig(prior=prior, tasks=["push_button", "pick_cube"], data=str(root / "unimanual"),
+                          validation_data=str(root / "unimanual"), out=str(out), steps=steps, checkpoint_every=2,
+                          size="debug")
 
 
 @pytest.fixture(scope="module")
@@ -40,6 +40,27 @@ def test_pretrain_resume_matches_uninterrupted(demo_root: Path, tiny_prior: Path
     for key, value in straight.items():
         assert torch.equal(value, resumed[key]), key
     assert (tiny_prior / "config.json").is_file() and (tiny_prior / "model.safetensors").is_file()
+
+
+def test_diffusion_prior_pretrains_resumes_and_loads(demo_root: Path, tmp_path: Path) -> None:
+    pretrain(pretrain_cfg(demo_root, tmp_path / "a", steps=2, prior="dp"))
+    best = pretrain(pretrain_cfg(demo_root, tmp_path / "a", steps=4, prior="dp"))
+    pretrain(pretrain_cfg(demo_root, tmp_path / "b", steps=4, prior="dp"))
+    resumed = load_file(str(latest_checkpoint(tmp_path / "a") / "model.safetensors"))
+    straight = load_file(str(latest_checkpoint(tmp_path / "b") / "model.safetensors"))
+    for key, value in straight.items():
+        assert torch.equal(value, resumed[key]), key
+    prior = UnimanualPrior.from_pretrained(best)
+    assert prior.config.type == "diffusion" and "Diffusion Policy" in (best / "README.md").read_text()
+    assert torch.all(prior.action_low[:3] < prior.action_high[:3])  # normalisation fitted to the demos
+
+
+def test_pretraining_refuses_bimanual_tasks_and_missing_data(demo_root: Path, tmp_path: Path) -> None:
+    with pytest.raises(ValueError, match="bimanual tasks"):
+        pretrain(PretrainConfig(tasks=["push_two_buttons"], data=str(demo_root / "bimanual"), out=str(tmp_path)))
+    with pytest.raises(FileNotFoundError, match="no single-arm demos for \\['slide_block'\\]"):
+        pretrain(PretrainConfig(tasks=["push_button", "slide_block"], data=str(demo_root / "unimanual"),
+                                out=str(tmp_path)))
 
 
 def test_residual_training_resumes_keeps_prior_frozen_and_evaluates(demo_root: Path, tiny_prior: Path,

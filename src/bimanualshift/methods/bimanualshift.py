@@ -69,5 +69,6 @@ def load_bimanualshift(directory: str | Path, text_encoder: TextEncoder) -> Bima
     residual = ResidualPolicy(rcfg, SkillBasis(rcfg.num_skills, text_encoder.dim))
     residual.load_state_dict(load_file(str(directory / "model.safetensors")))
     stage = FrozenPriorStage(prior, text_encoder, use_projection=cfg.get("use_projection", True),
-                             segmenter=cfg.get("segmenter", "simulator"))
+                             segmenter=cfg.get("segmenter", "simulator"),
+                             segmenter_options=cfg.get("segmenter_options"))
     return BimanualShift(stage, residual)

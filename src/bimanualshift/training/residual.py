@@ -47,6 +47,8 @@ class TrainConfig:
     checkpoint_every: int = 250
     use_projection: bool = True
     segmenter: str = "simulator"  # simulator | grounded_sam | degraded-mild | degraded-strong
+    grounding_dino: str = ""  # grounded_sam only: local save_pretrained folder or hub id (empty: the default)
+    sam: str = ""  # grounded_sam only: local folder or hub id of SAM (empty: the default)
     structured: bool = True
     augment_copies: int = 0  # shifted copies of every demo keyframe, each through the frozen prior
     augment_max_voxels: int = 2
@@ -122,6 +124,11 @@ def translation_report(residual: ResidualPolicy, data: ResidualData) -> dict[str
     return report
 
 
+def segmenter_options(grounding_dino: str, sam: str) -> dict[str, str]:
+    """GroundedSamConfig overrides for the weights' locations; empty strings keep the defaults."""
+    return {k: v for k, v in (("detector", grounding_dino), ("sam", sam)) if v}
+
+
 def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Path:
     started = time.time()
     out = Path(cfg.out)
@@ -129,7 +136,8 @@ def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Pat
     atomic_write_json(out / "train_config.json", asdict(cfg))
     text_encoder = default_text_encoder()
     prior = prior if prior is not None else UnimanualPrior.from_pretrained(cfg.prior)
-    stage = FrozenPriorStage(prior, text_encoder, use_projection=cfg.use_projection, segmenter=cfg.segmenter)
+    stage = FrozenPriorStage(prior, text_encoder, use_projection=cfg.use_projection, segmenter=cfg.segmenter,
+                             segmenter_options=segmenter_options(cfg.grounding_dino, cfg.sam))
     paths = list_episodes(cfg.data, cfg.task)[: cfg.demos]
     if not paths:
         raise FileNotFoundError(f"no bimanual demos for {cfg.task} under {cfg.data}; run "
@@ -143,6 +151,7 @@ def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Pat
     residual = ResidualPolicy(rcfg, SkillBasis.from_verbs(text_encoder))
     optimizer = make_lamb(residual.parameters(), lr=cfg.lr)
     checkpoint_meta = {"prior": cfg.prior, "use_projection": cfg.use_projection, "segmenter": cfg.segmenter,
+                       "segmenter_options": segmenter_options(cfg.grounding_dino, cfg.sam),
                        "task": cfg.task, "demos": len(paths),
                        "text_encoder": getattr(text_encoder, "name", "custom")}
 
