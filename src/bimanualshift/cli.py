@@ -235,6 +235,39 @@ def cmd_projection_quality(args: argparse.Namespace) -> None:
         print(f"wrote {args.out}")
 
 
+def cmd_prior_report(args: argparse.Namespace) -> None:
+    from rich.console import Console
+    from rich.table import Table
+
+    from bimanualshift.data.seeds import split_seeds
+    from bimanualshift.evaluation.priors import evaluate_priors, prior_rows
+    from bimanualshift.evaluation.report import write_result
+
+    tasks = _resolve_tasks(args.task)
+    started = time.time()
+    seeds = split_seeds("test", args.episodes)
+    episodes = evaluate_priors(args.prior, tasks, seeds, workers=args.workers)
+    rows = prior_rows(args.prior, episodes, tasks, seeds[0])
+    table = Table(title=f"single-arm priors ({args.episodes} test seeds per task)")
+    table.add_column("task")
+    for row in rows:
+        table.add_column(row["prior"], justify="right")
+    for task in tasks:
+        table.add_row(task, *[f"{100 * r['tasks'][task]['success']:.0f} % "
+                              f"[{100 * r['tasks'][task]['ci95'][0]:.0f}, {100 * r['tasks'][task]['ci95'][1]:.0f}]"
+                              for r in rows])
+    table.add_row("mean", *[f"{100 * r['mean_success']:.1f} %" for r in rows])
+    table.add_row("parameters", *[f"{r['parameters']:,}" for r in rows])
+    table.add_row("ms per arm", *[f"{r['inference_ms_per_arm']}" for r in rows])
+    Console().print(table)
+    if args.out:
+        write_result(args.out, "bimanualshift " + " ".join(sys.argv[1:]), {"test": seeds}, started, rows,
+                     notes="each prior drives the single arm alone (no projection, no residual); a rollout stops "
+                           "at twice the expert's keyframe count on the same seed; inference is the median of 20 "
+                           "predict calls for one arm with 2 torch threads")
+        print(f"wrote {args.out}")
+
+
 def cmd_pretrain(args: argparse.Namespace) -> None:
     from bimanualshift.training.pretrain import PretrainConfig, pretrain
 
@@ -365,6 +398,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--fps", type=int, default=13, help="frames per second of the video (default: 13)")
     p.add_argument("--perturb", default="none", help="a perturbation preset, e.g. lighting or swap_sides")
     p.set_defaults(func=cmd_video)
+
+    p = sub.add_parser("prior-report", help="single-arm success, size and speed of frozen priors (results/priors.json)")
+    p.add_argument("--prior", nargs="+", required=True, help="prior checkpoint folder(s) or shipped name(s)")
+    p.add_argument("--task", nargs="+", default=["unimanual"], help="single-arm task(s) (default: unimanual)")
+    p.add_argument("--episodes", type=int, default=50, help="test seeds per task (default: 50)")
+    p.add_argument("--workers", type=int, default=1, help="parallel worker processes (default: 1)")
+    p.add_argument("--out", help="write a result JSON here (e.g. results/priors.json)")
+    p.set_defaults(func=cmd_prior_report)
 
     _add_config_command(sub, "pretrain", "pretrain a single-arm prior on single-arm demos only", PretrainConfig,
                         cmd_pretrain)

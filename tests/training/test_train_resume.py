@@ -98,3 +98,19 @@ def test_residual_training_resumes_keeps_prior_frozen_and_evaluates(demo_root: P
     finally:
         env.close()
     assert record.keyframes == 1 and record.method == "bimanualshift"
+
+
+def test_prior_report_measures_a_trained_prior(tiny_prior: Path) -> None:
+    from bimanualshift.data.seeds import split_seeds
+    from bimanualshift.evaluation.priors import KEYFRAME_BUDGET, evaluate_priors, prior_rows
+
+    seeds = split_seeds("test", 2)
+    episodes = evaluate_priors([str(tiny_prior)], ["push_button"], seeds)
+    assert [e.seed for e in episodes] == seeds
+    env = ManipulationEnv("push_button")
+    env.reset(seed=seeds[0], options={"render": False})
+    assert all(e.success or e.keyframes == KEYFRAME_BUDGET * len(env.expert_keyframes()) for e in episodes[:1])
+    (row,) = prior_rows([str(tiny_prior)], episodes, ["push_button"], seeds[0])
+    assert row["type"] == "peract" and row["tasks"]["push_button"]["episodes"] == 2
+    assert row["parameters"] == sum(p.numel() for p in UnimanualPrior.from_pretrained(tiny_prior).parameters())
+    assert row["inference_ms_per_arm"] > 0 and row["training_time_s"] is not None

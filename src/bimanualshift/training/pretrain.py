@@ -207,7 +207,7 @@ def pretrain(cfg: PretrainConfig) -> Path:
     def on_best(step: int, value: float, elapsed_s: float) -> None:
         model.save_pretrained(out / "best", extra={
             "trained_steps": step, "validation_translation_accuracy": -value,
-            "pretrain_tasks": tasks, "train_episodes": len(paths),
+            "pretrain_tasks": tasks, "train_episodes": len(paths), "training_time_s": elapsed_s,
         })
         atomic_write_text(out / "best" / "README.md", model_card(
             cfg, kind, step, -value, len(paths), len(val_paths), elapsed_s,
