@@ -114,3 +114,25 @@ def test_prior_report_measures_a_trained_prior(tiny_prior: Path) -> None:
     assert row["type"] == "peract" and row["tasks"]["push_button"]["episodes"] == 2
     assert row["parameters"] == sum(p.numel() for p in UnimanualPrior.from_pretrained(tiny_prior).parameters())
     assert row["inference_ms_per_arm"] > 0 and row["training_time_s"] is not None
+
+
+def test_retrieval_trains_saves_its_frozen_memory_and_acts(demo_root: Path, tiny_prior: Path, tmp_path: Path
+                                                           ) -> None:
+    from bimanualshift.memory.bank import MemoryBank
+    from bimanualshift.methods.bimanualshift import MEMORY_FILE
+
+    best = train_residual(TrainConfig(prior=str(tiny_prior), data=str(demo_root / "bimanual"),
+                                      validation_data=str(demo_root / "bimanual"), out=str(tmp_path), steps=2,
+                                      checkpoint_every=2, demos=2, retrieval=True, retrieval_threshold=-1.0))
+    bank = MemoryBank.load(best / MEMORY_FILE)
+    assert len(bank) == 2 and bank.entries[0].source == "demo" and bank.entries[0].task == "push_two_buttons"
+    policy = load_bimanualshift(best, default_text_encoder())
+    assert policy.memory.frozen and policy.residual.config.reference_dim > 0
+    env = ManipulationEnv("push_two_buttons", image_size=64)
+    try:
+        record = rollout(env, policy, seed=200_000, max_keyframes=1)
+    finally:
+        env.close()
+    assert record.keyframes == 1 and policy.retrieval is not None  # threshold -1: always a reference
+    policy.reset()
+    assert policy.retrieval is None

@@ -48,6 +48,7 @@ class MemoryEntry:
 
 @dataclass(frozen=True)
 class Retrieval:
+    index: int  # position of the entry in the bank
     entry: MemoryEntry
     similarity: float  # cosine similarity of the keys, in [-1, 1]
     trajectory: np.ndarray  # (K, A, D) keyframe actions of the stored execution
@@ -96,19 +97,24 @@ class MemoryBank:
         self.entries.append(entry)
         self.trajectories.append(trajectory)
 
-    def search(self, query: np.ndarray) -> Retrieval | None:
+    def search(self, query: np.ndarray, exclude: frozenset[int] | set[int] = frozenset()) -> Retrieval | None:
         """The most similar stored execution, or None when the bank is empty or the best similarity is below
-        the confidence threshold."""
+        the confidence threshold. ``exclude`` skips entries by index (a training demo must not retrieve
+        itself: the reference would be the answer)."""
         query = np.asarray(query, dtype=np.float32).reshape(1, -1)
         if query.shape[1] != self.dim:
             raise ValueError(f"query has {query.shape[1]} values; this bank's keys have {self.dim}")
         if not self.entries:
             return None
-        similarity, index = self.index.search(query, 1)
-        best, score = int(index[0, 0]), float(similarity[0, 0])
-        if best < 0 or score < self.threshold:
-            return None
-        return Retrieval(self.entries[best], score, self.trajectories[best])
+        k = min(len(self), 1 + len(exclude))
+        similarity, index = self.index.search(query, k)
+        for best, score in zip(index[0].tolist(), similarity[0].tolist()):
+            if best < 0 or best in exclude:
+                continue
+            if score < self.threshold:
+                return None
+            return Retrieval(best, self.entries[best], float(score), self.trajectories[best])
+        return None
 
     def keys(self) -> np.ndarray:
         return self.index.reconstruct_n(0, len(self)) if len(self) else np.zeros((0, self.dim), np.float32)
