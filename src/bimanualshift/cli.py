@@ -300,7 +300,8 @@ def cmd_eval(args: argparse.Namespace) -> None:
     else:
         if not args.prior:
             sys.exit(f"error: --prior DIR is required for --method {args.method}")
-        policy = FrozenPriorPerArm.from_pretrained(args.prior, text_encoder, name=args.method)
+        policy = FrozenPriorPerArm.from_pretrained(args.prior, text_encoder, name=args.method,
+                                                   use_projection=args.method == "no_residual")
     seeds = split_seeds(args.split, args.episodes)
     records = []
     for task in args.task:
@@ -413,9 +414,11 @@ def build_parser() -> argparse.ArgumentParser:
                         cmd_train)
 
     p = sub.add_parser("eval", help="evaluate a method on held-out seeds")
-    p.add_argument("--method", default="bimanualshift", choices=["bimanualshift", "leader_follower", "prior"],
-                   help="bimanualshift (needs --checkpoint); leader_follower = the frozen prior driving each arm; "
-                        "prior = the same, named for single-arm tasks (both need --prior)")
+    p.add_argument("--method", default="bimanualshift",
+                   choices=["bimanualshift", "leader_follower", "no_residual", "prior"],
+                   help="bimanualshift (needs --checkpoint); leader_follower = the frozen prior driving each arm on "
+                        "the global scene; no_residual = the same through the projection (ablation); prior = the "
+                        "frozen prior, named for single-arm tasks (the last three need --prior)")
     p.add_argument("--checkpoint", help="BimanualShift checkpoint directory (from `train`)")
     p.add_argument("--prior", help="prior checkpoint directory (for leader_follower and prior)")
     p.add_argument("--task", nargs="+", default=["push_two_buttons"], help="one or more task names")

@@ -136,3 +136,12 @@ def test_retrieval_trains_saves_its_frozen_memory_and_acts(demo_root: Path, tiny
     assert record.keyframes == 1 and policy.retrieval is not None  # threshold -1: always a reference
     policy.reset()
     assert policy.retrieval is None
+
+
+def test_without_residual_ablation_keeps_the_projection(tiny_prior: Path) -> None:
+    from bimanualshift.methods.leader_follower import FrozenPriorPerArm
+
+    encoder = default_text_encoder()
+    assert FrozenPriorPerArm.from_pretrained(str(tiny_prior), encoder).stage.builder.projection is None
+    ablation = FrozenPriorPerArm.from_pretrained(str(tiny_prior), encoder, "no_residual", use_projection=True)
+    assert ablation.stage.builder.projection is not None and ablation.name == "no_residual"
