@@ -2,8 +2,8 @@ import pytest
 
 from bimanualshift.cli import build_parser, main
 
-COMMANDS = ["experts", "snapshot", "video", "viz", "projection-quality", "collect", "pretrain", "train", "eval",
-            "demo", "tasks"]
+COMMANDS = ["experts", "snapshot", "video", "viz", "projection-quality", "prior-report", "collect", "pretrain",
+            "train", "eval", "demo", "tasks"]
 
 
 @pytest.mark.parametrize("command", COMMANDS)

@@ -72,15 +72,12 @@ def _config_from_args(config_cls: type, args: argparse.Namespace):  # noqa: ANN2
 def _resolve_tasks(requested: list[str]) -> list[str]:
     """Task names from --task: registered names, 'all', 'bimanual' or 'unimanual'; exits with the list of
     choices otherwise."""
-    from bimanualshift.sim.task import task_names
+    from bimanualshift.sim.task import resolve_task_names
 
-    known = task_names()
-    groups = {"all": known, "bimanual": task_names(bimanual=True), "unimanual": task_names(bimanual=False)}
-    tasks = [t for name in requested for t in groups.get(name, [name])]
-    bad = [t for t in tasks if t not in known]
-    if bad:
-        sys.exit(f"error: unknown task(s) {bad}; choose from {known}, or all / bimanual / unimanual")
-    return tasks
+    try:
+        return resolve_task_names(requested)
+    except ValueError as err:
+        sys.exit(f"error: {err}")
 
 
 def cmd_tasks(args: argparse.Namespace) -> None:
@@ -238,6 +235,39 @@ def cmd_projection_quality(args: argparse.Namespace) -> None:
         print(f"wrote {args.out}")
 
 
+def cmd_prior_report(args: argparse.Namespace) -> None:
+    from rich.console import Console
+    from rich.table import Table
+
+    from bimanualshift.data.seeds import split_seeds
+    from bimanualshift.evaluation.priors import evaluate_priors, prior_rows
+    from bimanualshift.evaluation.report import write_result
+
+    tasks = _resolve_tasks(args.task)
+    started = time.time()
+    seeds = split_seeds("test", args.episodes)
+    episodes = evaluate_priors(args.prior, tasks, seeds, workers=args.workers)
+    rows = prior_rows(args.prior, episodes, tasks, seeds[0])
+    table = Table(title=f"single-arm priors ({args.episodes} test seeds per task)")
+    table.add_column("task")
+    for row in rows:
+        table.add_column(row["prior"], justify="right")
+    for task in tasks:
+        table.add_row(task, *[f"{100 * r['tasks'][task]['success']:.0f} % "
+                              f"[{100 * r['tasks'][task]['ci95'][0]:.0f}, {100 * r['tasks'][task]['ci95'][1]:.0f}]"
+                              for r in rows])
+    table.add_row("mean", *[f"{100 * r['mean_success']:.1f} %" for r in rows])
+    table.add_row("parameters", *[f"{r['parameters']:,}" for r in rows])
+    table.add_row("ms per arm", *[f"{r['inference_ms_per_arm']}" for r in rows])
+    Console().print(table)
+    if args.out:
+        write_result(args.out, "bimanualshift " + " ".join(sys.argv[1:]), {"test": seeds}, started, rows,
+                     notes="each prior drives the single arm alone (no projection, no residual); a rollout stops "
+                           "at twice the expert's keyframe count on the same seed; inference is the median of 20 "
+                           "predict calls for one arm with 2 torch threads")
+        print(f"wrote {args.out}")
+
+
 def cmd_pretrain(args: argparse.Namespace) -> None:
     from bimanualshift.training.pretrain import PretrainConfig, pretrain
 
@@ -270,7 +300,8 @@ def cmd_eval(args: argparse.Namespace) -> None:
     else:
         if not args.prior:
             sys.exit(f"error: --prior DIR is required for --method {args.method}")
-        policy = FrozenPriorPerArm.from_pretrained(args.prior, text_encoder, name=args.method)
+        policy = FrozenPriorPerArm.from_pretrained(args.prior, text_encoder, name=args.method,
+                                                   use_projection=args.method == "no_residual")
     seeds = split_seeds(args.split, args.episodes)
     records = []
     for task in args.task:
@@ -369,15 +400,25 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--perturb", default="none", help="a perturbation preset, e.g. lighting or swap_sides")
     p.set_defaults(func=cmd_video)
 
+    p = sub.add_parser("prior-report", help="single-arm success, size and speed of frozen priors (results/priors.json)")
+    p.add_argument("--prior", nargs="+", required=True, help="prior checkpoint folder(s) or shipped name(s)")
+    p.add_argument("--task", nargs="+", default=["unimanual"], help="single-arm task(s) (default: unimanual)")
+    p.add_argument("--episodes", type=int, default=50, help="test seeds per task (default: 50)")
+    p.add_argument("--workers", type=int, default=1, help="parallel worker processes (default: 1)")
+    p.add_argument("--out", help="write a result JSON here (e.g. results/priors.json)")
+    p.set_defaults(func=cmd_prior_report)
+
     _add_config_command(sub, "pretrain", "pretrain a single-arm prior on single-arm demos only", PretrainConfig,
                         cmd_pretrain)
     _add_config_command(sub, "train", "train the residual branch on bimanual demos (prior frozen)", TrainConfig,
                         cmd_train)
 
     p = sub.add_parser("eval", help="evaluate a method on held-out seeds")
-    p.add_argument("--method", default="bimanualshift", choices=["bimanualshift", "leader_follower", "prior"],
-                   help="bimanualshift (needs --checkpoint); leader_follower = the frozen prior driving each arm; "
-                        "prior = the same, named for single-arm tasks (both need --prior)")
+    p.add_argument("--method", default="bimanualshift",
+                   choices=["bimanualshift", "leader_follower", "no_residual", "prior"],
+                   help="bimanualshift (needs --checkpoint); leader_follower = the frozen prior driving each arm on "
+                        "the global scene; no_residual = the same through the projection (ablation); prior = the "
+                        "frozen prior, named for single-arm tasks (the last three need --prior)")
     p.add_argument("--checkpoint", help="BimanualShift checkpoint directory (from `train`)")
     p.add_argument("--prior", help="prior checkpoint directory (for leader_follower and prior)")
     p.add_argument("--task", nargs="+", default=["push_two_buttons"], help="one or more task names")

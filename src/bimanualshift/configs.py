@@ -1,10 +1,30 @@
-"""Named configurations. ``debug`` is tiny: it trains in seconds on a CPU and is what the tests use."""
+"""Named model sizes per prior type. ``debug`` is tiny: it trains in seconds on a CPU and is what the tests use."""
 
 from __future__ import annotations
 
 from typing import Any
 
-PRIOR_MODELS: dict[str, dict[str, Any]] = {
-    "default": {},  # PerActConfig defaults: 32^3 voxels, 96-wide tokens, 32 latents, 2 layers
-    "debug": {"voxel_size": 16, "patch_size": 4, "dim": 32, "num_latents": 8, "self_attention_layers": 1, "heads": 2},
+PRIOR_SIZES: dict[str, dict[str, dict[str, Any]]] = {
+    "peract": {
+        "default": {},  # PerActConfig defaults: 32^3 voxels, 96-wide tokens, 32 latents, 2 layers
+        "paper": {"voxel_size": 100, "patch_size": 5, "dim": 128, "num_latents": 64, "self_attention_layers": 4},
+        "debug": {"voxel_size": 16, "patch_size": 4, "dim": 32, "num_latents": 8, "self_attention_layers": 1,
+                  "heads": 2},
+    },
+    "diffusion": {
+        "default": {},  # DiffusionConfig defaults: 32^3 voxels, 1024 points, 3 layers of width 128
+        "debug": {"voxel_size": 16, "max_points": 128, "point_dim": 32, "dim": 32, "layers": 1, "heads": 2,
+                  "train_timesteps": 20, "inference_steps": 3},
+    },
 }
+PRIOR_MODELS = PRIOR_SIZES["peract"]  # the PerAct sizes, by their historical name
+
+
+def prior_model_config(prior_type: str, size: str) -> dict[str, Any]:
+    """Config-field overrides of a named size; a clear error for an unknown type or size."""
+    if prior_type not in PRIOR_SIZES:
+        raise ValueError(f"no named sizes for prior type {prior_type!r}; known: {sorted(PRIOR_SIZES)}")
+    sizes = PRIOR_SIZES[prior_type]
+    if size not in sizes:
+        raise ValueError(f"unknown size {size!r} for the {prior_type} prior; choose from {sorted(sizes)}")
+    return dict(sizes[size])

@@ -47,9 +47,12 @@ class DemoConfig:
 
 
 def ensure_prior(cfg: DemoConfig) -> str:
-    if (Path(cfg.prior) / "model.safetensors").is_file():
-        print(f"[demo] using the pretrained single-arm prior at {cfg.prior}")
-        return cfg.prior
+    """The prior to use: a checkpoint directory or shipped name, or one pretrained here if there is none."""
+    shipped = SHIPPED_PRIOR.parent / cfg.prior
+    path = Path(cfg.prior) if Path(cfg.prior).is_dir() or not shipped.is_dir() else shipped
+    if (path / "model.safetensors").is_file():
+        print(f"[demo] using the pretrained single-arm prior at {path}")
+        return str(path)
     print(f"[demo] no prior at {cfg.prior}: pretraining one on single-arm demos (single-arm data only)")
     data, val = f"{cfg.workdir}/data/unimanual", f"{cfg.workdir}/data/unimanual_val"
     tasks = ["push_button", "pick_cube"]

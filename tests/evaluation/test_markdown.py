@@ -52,3 +52,34 @@ def test_other_results_get_a_table_of_their_scalar_fields() -> None:
     assert lines[0] == "| task | workers | episodes per min |"
     assert lines[2:4] == ["| lift_ball | 1 | 6.250 |", "| lift_ball | 2 | 11.500 |"]
     assert "`python benchmarks/collection_speed.py` at commit `abcdef012345`" in table
+
+
+META = {"command": "bimanualshift x", "commit": "abcdef0123456789", "created": "now", "machine": "m",
+        "wall_time_s": 60, "notes": "n", "seeds": {"test": [200000]}}
+
+
+def test_projection_quality_puts_both_arms_on_one_line() -> None:
+    from bimanualshift.evaluation.markdown import table_for
+
+    rows = [{"task": "lift_ball", "segmenter": s, "arm": a, "kept": k, "removed": r, "episodes": 50, "keyframes": 400}
+            for s, a, k, r in [("simulator", "left", 0.991, 0.97), ("simulator", "right", 0.993, 0.965),
+                               ("degraded-mild", "left", 0.9, 0.8), ("degraded-mild", "right", 0.91, 0.81)]]
+    lines = table_for({**META, "rows": rows}).splitlines()
+    assert lines[2] == "| lift_ball | simulator | 0.991 | 0.970 | 0.993 | 0.965 | 50 | 400 |"
+    assert lines[3].startswith("| lift_ball | degraded-mild | 0.900 | 0.800 | 0.910 | 0.810 |")
+
+
+def test_priors_table_has_one_column_per_prior() -> None:
+    from bimanualshift.evaluation.markdown import table_for
+
+    def row(name: str, p: float) -> dict:
+        return {"prior": name, "type": "peract", "mean_success": p, "parameters": 1234567,
+                "inference_ms_per_arm": 12.5, "training_time_s": 1800.0,
+                "tasks": {"push_button": {"success": p, "ci95": [p - 0.1, p + 0.05], "episodes": 50}}}
+
+    table = table_for({**META, "rows": [row("peract_unimanual", 0.8), row("dp_unimanual", 0.7)]})
+    lines = table.splitlines()
+    assert lines[0] == "| task | peract_unimanual | dp_unimanual |"
+    assert lines[2] == "| push_button | 80 % (70–85) | 70 % (60–75) |"
+    assert "| parameters | 1,234,567 | 1,234,567 |" in lines and "| training time | 30 min | 30 min |" in lines
+    assert "50 test episodes per task" in table

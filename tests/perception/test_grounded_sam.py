@@ -88,3 +88,22 @@ def test_missing_weights_give_a_clear_error(tmp_path: Path) -> None:
     (tmp_path / "empty").mkdir()
     with pytest.raises(FileNotFoundError, match="no config.json"):
         GroundedSamSegmenter(GroundedSamConfig(detector=str(tmp_path / "empty"), sam=str(tmp_path / "empty")))
+
+
+def test_training_config_points_the_projection_at_local_weights(tiny_models: tuple[Path, Path]) -> None:
+    from bimanualshift.encoders.text import default_text_encoder
+    from bimanualshift.methods.stages import FrozenPriorStage
+    from bimanualshift.perception.segmenters.grounded_sam import GroundedSamSegmenter
+    from bimanualshift.priors.peract.configuration_peract import PerActConfig
+    from bimanualshift.priors.peract.modeling_peract import PerActPrior
+    from bimanualshift.training.residual import segmenter_options
+
+    detector, sam = tiny_models
+    options = segmenter_options(str(detector), str(sam))
+    assert options == {"detector": str(detector), "sam": str(sam)} and segmenter_options("", "") == {}
+    prior = PerActPrior(PerActConfig(voxel_size=16, patch_size=4, dim=32, num_latents=8, self_attention_layers=1,
+                                     heads=2))
+    stage = FrozenPriorStage(prior, default_text_encoder(), segmenter="grounded_sam", segmenter_options=options)
+    segmenter = stage.builder.projection.segmenter
+    assert isinstance(segmenter, GroundedSamSegmenter)
+    assert segmenter.config.detector == str(detector) and segmenter.config.sam == str(sam)

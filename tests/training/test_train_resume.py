@@ -9,7 +9,6 @@ import pytest
 import torch
 from safetensors.torch import load_file
 
-from bimanualshift.configs import PRIOR_MODELS
 from bimanualshift.encoders.text import default_text_encoder
 from bimanualshift.evaluation.rollout import rollout
 from bimanualshift.methods.bimanualshift import load_bimanualshift
@@ -20,9 +19,10 @@ from bimanualshift.training.pretrain import PretrainConfig, pretrain
 from bimanualshift.training.residual import TrainConfig, train_residual
 
 
-def pretrain_cfg(root: Path, out: Path, steps: int) -> PretrainConfig:
-    return PretrainConfig(data=str(root / "unimanual"), validation_data=str(root / "unimanual"), out=str(out),
-                          steps=steps, checkpoint_every=2, model=PRIOR_MODELS["debug"])
+def pretrain_cfg(root: Path, out: Path, steps: int, prior: str = "peract") -> PretrainConfig:
+    return PretrainConfig(prior=prior, tasks=["push_button", "pick_cube"], data=str(root / "unimanual"),
+                          validation_data=str(root / "unimanual"), out=str(out), steps=steps, checkpoint_every=2,
+                          size="debug")
 
 
 @pytest.fixture(scope="module")
@@ -40,6 +40,27 @@ def test_pretrain_resume_matches_uninterrupted(demo_root: Path, tiny_prior: Path
     for key, value in straight.items():
         assert torch.equal(value, resumed[key]), key
     assert (tiny_prior / "config.json").is_file() and (tiny_prior / "model.safetensors").is_file()
+
+
+def test_diffusion_prior_pretrains_resumes_and_loads(demo_root: Path, tmp_path: Path) -> None:
+    pretrain(pretrain_cfg(demo_root, tmp_path / "a", steps=2, prior="dp"))
+    best = pretrain(pretrain_cfg(demo_root, tmp_path / "a", steps=4, prior="dp"))
+    pretrain(pretrain_cfg(demo_root, tmp_path / "b", steps=4, prior="dp"))
+    resumed = load_file(str(latest_checkpoint(tmp_path / "a") / "model.safetensors"))
+    straight = load_file(str(latest_checkpoint(tmp_path / "b") / "model.safetensors"))
+    for key, value in straight.items():
+        assert torch.equal(value, resumed[key]), key
+    prior = UnimanualPrior.from_pretrained(best)
+    assert prior.config.type == "diffusion" and "Diffusion Policy" in (best / "README.md").read_text()
+    assert torch.all(prior.action_low[:3] < prior.action_high[:3])  # normalisation fitted to the demos
+
+
+def test_pretraining_refuses_bimanual_tasks_and_missing_data(demo_root: Path, tmp_path: Path) -> None:
+    with pytest.raises(ValueError, match="bimanual tasks"):
+        pretrain(PretrainConfig(tasks=["push_two_buttons"], data=str(demo_root / "bimanual"), out=str(tmp_path)))
+    with pytest.raises(FileNotFoundError, match="no single-arm demos for \\['slide_block'\\]"):
+        pretrain(PretrainConfig(tasks=["push_button", "slide_block"], data=str(demo_root / "unimanual"),
+                                out=str(tmp_path)))
 
 
 def test_residual_training_resumes_keeps_prior_frozen_and_evaluates(demo_root: Path, tiny_prior: Path,
@@ -77,3 +98,50 @@ def test_residual_training_resumes_keeps_prior_frozen_and_evaluates(demo_root: P
     finally:
         env.close()
     assert record.keyframes == 1 and record.method == "bimanualshift"
+
+
+def test_prior_report_measures_a_trained_prior(tiny_prior: Path) -> None:
+    from bimanualshift.data.seeds import split_seeds
+    from bimanualshift.evaluation.priors import KEYFRAME_BUDGET, evaluate_priors, prior_rows
+
+    seeds = split_seeds("test", 2)
+    episodes = evaluate_priors([str(tiny_prior)], ["push_button"], seeds)
+    assert [e.seed for e in episodes] == seeds
+    env = ManipulationEnv("push_button")
+    env.reset(seed=seeds[0], options={"render": False})
+    assert all(e.success or e.keyframes == KEYFRAME_BUDGET * len(env.expert_keyframes()) for e in episodes[:1])
+    (row,) = prior_rows([str(tiny_prior)], episodes, ["push_button"], seeds[0])
+    assert row["type"] == "peract" and row["tasks"]["push_button"]["episodes"] == 2
+    assert row["parameters"] == sum(p.numel() for p in UnimanualPrior.from_pretrained(tiny_prior).parameters())
+    assert row["inference_ms_per_arm"] > 0 and row["training_time_s"] is not None
+
+
+def test_retrieval_trains_saves_its_frozen_memory_and_acts(demo_root: Path, tiny_prior: Path, tmp_path: Path
+                                                           ) -> None:
+    from bimanualshift.memory.bank import MemoryBank
+    from bimanualshift.methods.bimanualshift import MEMORY_FILE
+
+    best = train_residual(TrainConfig(prior=str(tiny_prior), data=str(demo_root / "bimanual"),
+                                      validation_data=str(demo_root / "bimanual"), out=str(tmp_path), steps=2,
+                                      checkpoint_every=2, demos=2, retrieval=True, retrieval_threshold=-1.0))
+    bank = MemoryBank.load(best / MEMORY_FILE)
+    assert len(bank) == 2 and bank.entries[0].source == "demo" and bank.entries[0].task == "push_two_buttons"
+    policy = load_bimanualshift(best, default_text_encoder())
+    assert policy.memory.frozen and policy.residual.config.reference_dim > 0
+    env = ManipulationEnv("push_two_buttons", image_size=64)
+    try:
+        record = rollout(env, policy, seed=200_000, max_keyframes=1)
+    finally:
+        env.close()
+    assert record.keyframes == 1 and policy.retrieval is not None  # threshold -1: always a reference
+    policy.reset()
+    assert policy.retrieval is None
+
+
+def test_without_residual_ablation_keeps_the_projection(tiny_prior: Path) -> None:
+    from bimanualshift.methods.leader_follower import FrozenPriorPerArm
+
+    encoder = default_text_encoder()
+    assert FrozenPriorPerArm.from_pretrained(str(tiny_prior), encoder).stage.builder.projection is None
+    ablation = FrozenPriorPerArm.from_pretrained(str(tiny_prior), encoder, "no_residual", use_projection=True)
+    assert ablation.stage.builder.projection is not None and ablation.name == "no_residual"

@@ -43,6 +43,45 @@ def experts_table(result: dict[str, Any]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def _footer(result: dict[str, Any]) -> str:
+    return (f"Produced by `{result['command']}` at commit `{result['commit'][:12]}` on {result['created']} "
+            f"({result['machine']}); wall time {result['wall_time_s'] / 60:.1f} min. {result['notes']}.")
+
+
+def projection_quality_table(result: dict[str, Any]) -> str:
+    """Kept / removed voxel fractions, one line per task and segmenter, both arms side by side."""
+    lines = ["| task | segmenter | left kept | left removed | right kept | right removed | episodes | keyframes |",
+             "|---|---|---|---|---|---|---|---|"]
+    cells: dict[tuple[str, str], dict[str, Any]] = {}
+    for r in result["rows"]:
+        cells.setdefault((r["task"], r["segmenter"]), {"episodes": r["episodes"], "keyframes": r["keyframes"]})
+        cells[(r["task"], r["segmenter"])][r["arm"]] = r
+    for (task, segmenter), c in cells.items():
+        arms = [f"{c[a]['kept']:.3f} | {c[a]['removed']:.3f}" if a in c else "– | –" for a in ("left", "right")]
+        lines.append(f"| {task} | {segmenter} | {arms[0]} | {arms[1]} | {c['episodes']} | {c['keyframes']} |")
+    return "\n".join([*lines, "", _footer(result)]) + "\n"
+
+
+def priors_table(result: dict[str, Any]) -> str:
+    """Single-arm success per task (with 95 % intervals) for each prior, then size and speed."""
+    rows = result["rows"]
+    tasks = list(rows[0]["tasks"])
+    lines = ["| task | " + " | ".join(r["prior"] for r in rows) + " |", "|---|" + "---|" * len(rows)]
+    for task in tasks:
+        cells = []
+        for r in rows:
+            t = r["tasks"][task]
+            cells.append(f"{100 * t['success']:.0f} % ({100 * t['ci95'][0]:.0f}–{100 * t['ci95'][1]:.0f})")
+        lines.append(f"| {task} | " + " | ".join(cells) + " |")
+    lines.append("| **mean** | " + " | ".join(f"**{100 * r['mean_success']:.1f} %**" for r in rows) + " |")
+    lines.append("| parameters | " + " | ".join(f"{r['parameters']:,}" for r in rows) + " |")
+    lines.append("| ms per arm (2 threads) | " + " | ".join(f"{r['inference_ms_per_arm']}" for r in rows) + " |")
+    lines.append("| training time | " + " | ".join(
+        f"{r['training_time_s'] / 60:.0f} min" if r.get("training_time_s") else "–" for r in rows) + " |")
+    episodes = rows[0]["tasks"][tasks[0]]["episodes"]
+    return "\n".join([*lines, "", f"{episodes} test episodes per task. " + _footer(result)]) + "\n"
+
+
 def generic_table(result: dict[str, Any]) -> str:
     """Any other result file: one column per scalar field of its rows (timings, projection quality, ...)."""
     rows = result["rows"]
@@ -60,6 +99,10 @@ def generic_table(result: dict[str, Any]) -> str:
 def table_for(result: dict[str, Any]) -> str:
     """Expert measurements, success rates of methods, or a generic table of whatever the rows hold."""
     first = result["rows"][0] if result["rows"] else {}
+    if "prior" in first and "tasks" in first:
+        return priors_table(result)
+    if "segmenter" in first and "kept" in first:
+        return projection_quality_table(result)
     if "bimanual" in first:
         return experts_table(result)
     if "method" in first and "success" in first:

@@ -14,34 +14,56 @@ from safetensors.torch import load_file, save_file
 from bimanualshift.data.frames import KeyframeObservation
 from bimanualshift.encoders.text import TextEncoder
 from bimanualshift.geometry.frames import compose_rotation
+from bimanualshift.memory.bank import MemoryBank, Retrieval
+from bimanualshift.memory.reference import episode_key, reference_vector
 from bimanualshift.methods.stages import FrozenPriorStage, world_action
 from bimanualshift.priors.base import UnimanualPrior
 from bimanualshift.residual.manager import ResidualConfig, ResidualPolicy, manager_inputs
 from bimanualshift.residual.skills import SkillBasis
 from bimanualshift.utils.io import atomic_write_json, atomic_writer
 
+MEMORY_FILE = "memory.safetensors"  # the frozen memory bank, beside the residual's weights
+
 
 class BimanualShift:
     name = "bimanualshift"
 
-    def __init__(self, stage: FrozenPriorStage, residual: ResidualPolicy) -> None:
+    def __init__(self, stage: FrozenPriorStage, residual: ResidualPolicy, memory: MemoryBank | None = None) -> None:
+        if (memory is not None) != (residual.config.reference_dim > 0):
+            raise ValueError("a residual trained with retrieval needs its memory bank, and one trained without "
+                             "retrieval takes none")
         self.stage = stage
         self.residual = residual.eval()
+        self.memory = memory.freeze() if memory is not None else None
+        self.retrieval: Retrieval | None = None
+        self._retrieved = False
 
     def reset(self) -> None:
-        pass
+        self.retrieval, self._retrieved = None, False
+
+    def _retrieve(self, steps: dict, text: torch.Tensor, arms: list[str]) -> None:
+        """Once per episode, on its first observation: the most similar stored execution, if confident."""
+        if self.memory is not None and not self._retrieved:
+            key = episode_key(text[0].numpy(), [steps[a].prior.features[0].numpy() for a in arms])
+            self.retrieval = self.memory.search(key)
+            self._retrieved = True
 
     @torch.no_grad()
     def act(self, obs: KeyframeObservation) -> np.ndarray:
         steps = self.stage.run(obs)
         text = self.stage.text(obs.instruction)
         arms = obs.scene.arm_names
+        self._retrieve(steps, text, arms)
         rows = []
         for i, arm in enumerate(arms):
             s = steps[arm]
+            reference = None
+            if self.memory is not None:
+                reference = torch.as_tensor(reference_vector(self.retrieval, obs.keyframe_index, i,
+                                                             s.prior.base_action()[0].numpy()))[None]
             inputs = manager_inputs(
                 s.prior.features, torch.as_tensor(s.proprio)[None], torch.as_tensor(s.other_proprio)[None], text,
-                s.prior.base_action(), torch.tensor([i]), self.residual.config.num_arms,
+                s.prior.base_action(), torch.tensor([i]), self.residual.config.num_arms, reference,
             )
             out = self.residual(inputs)
             position = s.prior.position[0].numpy() + out["translation"][0].numpy()
@@ -51,9 +73,12 @@ class BimanualShift:
         return np.stack(rows)
 
 
-def save_residual(directory: str | Path, residual: ResidualPolicy, extra: dict[str, Any]) -> Path:
+def save_residual(directory: str | Path, residual: ResidualPolicy, extra: dict[str, Any],
+                  memory: MemoryBank | None = None) -> Path:
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
+    if memory is not None:
+        memory.save(directory / MEMORY_FILE)
     with atomic_writer(directory / "model.safetensors") as tmp:
         save_file({k: v.detach().contiguous() for k, v in residual.state_dict().items()}, str(tmp))
     config = {"type": "bimanualshift", "residual": asdict(residual.config), **extra}
@@ -68,6 +93,8 @@ def load_bimanualshift(directory: str | Path, text_encoder: TextEncoder) -> Bima
     rcfg = ResidualConfig(**cfg["residual"])
     residual = ResidualPolicy(rcfg, SkillBasis(rcfg.num_skills, text_encoder.dim))
     residual.load_state_dict(load_file(str(directory / "model.safetensors")))
+    memory = MemoryBank.load(directory / MEMORY_FILE) if rcfg.reference_dim > 0 else None
     stage = FrozenPriorStage(prior, text_encoder, use_projection=cfg.get("use_projection", True),
-                             segmenter=cfg.get("segmenter", "simulator"))
-    return BimanualShift(stage, residual)
+                             segmenter=cfg.get("segmenter", "simulator"),
+                             segmenter_options=cfg.get("segmenter_options"))
+    return BimanualShift(stage, residual, memory)

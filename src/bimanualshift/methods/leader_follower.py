@@ -20,10 +20,12 @@ class FrozenPriorPerArm:
         self.name = name
 
     @staticmethod
-    def from_pretrained(prior: str, text_encoder: TextEncoder, name: str = "leader_follower") -> FrozenPriorPerArm:
-        """The baseline sees the global scene: no arm-conditioned projection, no residual."""
+    def from_pretrained(prior: str, text_encoder: TextEncoder, name: str = "leader_follower",
+                        use_projection: bool = False) -> FrozenPriorPerArm:
+        """The baseline sees the global scene: no arm-conditioned projection, no residual. With
+        ``use_projection`` it is the "without residual modulation" ablation: the projection, but no residual."""
         return FrozenPriorPerArm(FrozenPriorStage(UnimanualPrior.from_pretrained(prior), text_encoder,
-                                                  use_projection=False), name)
+                                                  use_projection=use_projection), name)
 
     def reset(self) -> None:
         pass

@@ -30,12 +30,13 @@ class ArmStep:
 
 class FrozenPriorStage:
     def __init__(self, prior: UnimanualPrior, text_encoder: TextEncoder, use_projection: bool = True,
-                 max_keyframes: int = 25, segmenter: str = "simulator") -> None:
+                 max_keyframes: int = 25, segmenter: str = "simulator",
+                 segmenter_options: dict[str, str] | None = None) -> None:
         self.prior = prior.freeze()
         self.text_encoder = text_encoder
         cfg = prior.config
         # The arm-conditioned projection is this stage's observation path; the ablation turns it off.
-        projection = ArmProjection(make_segmenter(segmenter)) if use_projection else None
+        projection = ArmProjection(make_segmenter(segmenter, **(segmenter_options or {}))) if use_projection else None
         self.builder = ArmObservationBuilder(VoxelGrid(tuple(cfg.bounds), cfg.voxel_size), projection)
         self.max_keyframes = max_keyframes
 

@@ -1,8 +1,18 @@
 """The frozen unimanual prior interface and its registry.
 
 A prior maps one arm's observation in its own base frame (voxels, proprioception, instruction embedding)
-to that arm's next keyframe action, and exposes the visual features the residual Manager consumes.
-Checkpoints are ``model.safetensors`` + ``config.json``; the config's ``type`` picks the class.
+to that arm's next keyframe action (optionally a chunk of the next few), and exposes the visual features the
+residual Manager consumes. Any single-arm policy can serve BimanualShift by subclassing ``UnimanualPrior``:
+
+* ``predict(voxels, proprio, text) -> PriorOutput`` -- inference, no gradients;
+* ``compute_loss(inputs, actions, generator) -> {"total": ..., ...}`` -- its own training objective on
+  continuous arm-frame action targets (``position`` (B, H, 3), ``quat`` (B, H, 4), ``gripper_open`` and
+  ``ignore_collisions`` (B, H)), so one pretraining loop and one augmentation serve every prior;
+* ``feature_dim``, ``action_horizon`` (H), ``reset()`` (between episodes), ``freeze()``,
+  ``set_normalization(positions)`` (statistics kept as buffers, saved with the weights).
+
+Checkpoints are ``model.safetensors`` + ``config.json``; the config's ``type`` picks the class, and a shipped
+checkpoint can be loaded by its name (``UnimanualPrior.from_pretrained("peract_unimanual")``).
 """
 
 from __future__ import annotations
@@ -27,6 +37,7 @@ class PriorOutput:
     gripper_open: torch.Tensor  # (B,) probability
     ignore_collisions: torch.Tensor  # (B,) probability
     features: torch.Tensor  # (B, F) visual features for the residual Manager
+    chunk: torch.Tensor | None = None  # (B, H, 8) the next H keyframe actions, for priors that predict chunks
 
     def base_action(self) -> torch.Tensor:
         """(B, 8) position, quaternion and gripper: the prior's own action as the Manager sees it."""
@@ -52,8 +63,23 @@ class UnimanualPrior(nn.Module):
     def feature_dim(self) -> int:
         raise NotImplementedError
 
+    @property
+    def action_horizon(self) -> int:
+        """Keyframe actions per prediction (and per training target)."""
+        return 1
+
     def predict(self, voxels: torch.Tensor, proprio: torch.Tensor, text: torch.Tensor) -> PriorOutput:
         raise NotImplementedError
+
+    def compute_loss(self, inputs: tuple[torch.Tensor, ...], actions: dict[str, torch.Tensor],
+                     generator: torch.Generator | None = None) -> dict[str, torch.Tensor]:
+        raise NotImplementedError
+
+    def set_normalization(self, positions: torch.Tensor) -> None:
+        """Fit normalisation statistics to the training actions' positions (N, 3); a no-op by default."""
+
+    def reset(self) -> None:
+        """Forget any state kept across calls within an episode (none by default)."""
 
     def freeze(self) -> UnimanualPrior:
         """Frozen priors never learn and never leave eval mode (no dropout or batch-norm updates)."""
@@ -78,7 +104,8 @@ class UnimanualPrior(nn.Module):
 
     @staticmethod
     def from_pretrained(directory: str | Path) -> UnimanualPrior:
-        directory = Path(directory)
+        """Load from a checkpoint directory, or by the name of a shipped checkpoint (see ``shipped_priors``)."""
+        directory = resolve_prior_path(directory)
         cfg_path, weights = directory / "config.json", directory / "model.safetensors"
         for p in (cfg_path, weights):
             if not p.is_file():
@@ -103,6 +130,27 @@ class UnimanualPrior(nn.Module):
                              f"missing {missing[:5]}, unexpected {unexpected[:5]}")
         model.load_state_dict(state)
         return model
+
+
+SHIPPED_DIR = Path(__file__).resolve().parents[3] / "checkpoints"
+
+
+def shipped_priors() -> list[str]:
+    """Names of the prior checkpoints shipped in the repository's ``checkpoints/`` folder."""
+    if not SHIPPED_DIR.is_dir():
+        return []
+    return sorted(p.name for p in SHIPPED_DIR.iterdir() if (p / "config.json").is_file())
+
+
+def resolve_prior_path(name_or_path: str | Path) -> Path:
+    """A directory as given, or the shipped checkpoint of that name; a clear error for neither."""
+    path = Path(name_or_path)
+    if path.is_dir():
+        return path
+    if len(path.parts) == 1 and (SHIPPED_DIR / path).is_dir():
+        return SHIPPED_DIR / path
+    raise FileNotFoundError(f"no prior checkpoint directory {name_or_path!r} and no shipped prior of that name; "
+                            f"shipped: {shipped_priors()}")
 
 
 PRIORS: dict[str, type[UnimanualPrior]] = {}

@@ -21,6 +21,7 @@ class ResidualConfig:
     base_action_dim: int = 8  # the prior's own action (arm frame): xyz, quaternion, gripper
     num_arms: int = 2
     structured: bool = True  # False: an MLP residual with no skill basis (ablation)
+    reference_dim: int = 0  # width of the retrieved temporal reference; 0 = no retrieval (ablation)
 
 
 class Manager(nn.Module):
@@ -29,7 +30,8 @@ class Manager(nn.Module):
     def __init__(self, config: ResidualConfig, skill_dim: int) -> None:
         super().__init__()
         c = config
-        in_dim = c.feature_dim + c.proprio_dim + c.other_proprio_dim + c.text_dim + c.base_action_dim + c.num_arms
+        in_dim = (c.feature_dim + c.proprio_dim + c.other_proprio_dim + c.text_dim + c.base_action_dim + c.num_arms
+                  + c.reference_dim)
         self.trunk = nn.Sequential(nn.Linear(in_dim, c.hidden), nn.GELU(), nn.Linear(c.hidden, c.hidden), nn.GELU())
         self.weights = nn.Linear(c.hidden, c.num_skills)
         self.compensation = nn.Linear(c.hidden, skill_dim)
@@ -61,7 +63,11 @@ class ResidualPolicy(nn.Module):
 
 
 def manager_inputs(features: torch.Tensor, proprio: torch.Tensor, other_proprio: torch.Tensor,
-                   text: torch.Tensor, base_action: torch.Tensor, arm_index: torch.Tensor, num_arms: int
-                   ) -> torch.Tensor:
-    return torch.cat([features, proprio, other_proprio, text, base_action,
-                      nn.functional.one_hot(arm_index, num_arms).float()], dim=-1)
+                   text: torch.Tensor, base_action: torch.Tensor, arm_index: torch.Tensor, num_arms: int,
+                   reference: torch.Tensor | None = None) -> torch.Tensor:
+    """The Manager's input row: the arm's visual features, both arms' proprioception, the instruction, the
+    prior's own action, the arm's one-hot and (with retrieval) the retrieved temporal reference."""
+    parts = [features, proprio, other_proprio, text, base_action, nn.functional.one_hot(arm_index, num_arms).float()]
+    if reference is not None:
+        parts.append(reference)
+    return torch.cat(parts, dim=-1)

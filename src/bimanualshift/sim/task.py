@@ -218,3 +218,14 @@ def task_names(bimanual: bool | None = None) -> list[str]:
     from bimanualshift.sim import tasks  # noqa: F401
 
     return sorted(n for n, c in TASKS.items() if bimanual is None or c.bimanual == bimanual)
+
+
+def resolve_task_names(requested: list[str]) -> list[str]:
+    """Registered task names from names and the groups 'all', 'bimanual' and 'unimanual'."""
+    known = task_names()
+    groups = {"all": known, "bimanual": task_names(bimanual=True), "unimanual": task_names(bimanual=False)}
+    tasks = list(dict.fromkeys(t for name in requested for t in groups.get(name, [name])))
+    bad = [t for t in tasks if t not in known]
+    if bad:
+        raise ValueError(f"unknown task(s) {bad}; choose from {known}, or all / bimanual / unimanual")
+    return tasks

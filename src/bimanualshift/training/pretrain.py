@@ -1,4 +1,11 @@
-"""Pretraining a unimanual prior on single-arm demonstrations only (`bimanualshift pretrain`)."""
+"""Pretraining a unimanual prior on single-arm demonstrations only (`bimanualshift pretrain --prior peract|dp`).
+
+One loop serves every registered prior: batches hold continuous arm-frame action chunks, the SE(3)
+augmentation moves voxels, proprioception and actions together, and each prior turns the chunk into its own
+objective (``UnimanualPrior.compute_loss``). Checkpoints are written atomically every ``checkpoint_every``
+steps and an interrupted run resumes from its newest one; validation seeds (never test seeds) pick the
+shipped checkpoint.
+"""
 
 from __future__ import annotations
 
@@ -10,104 +17,141 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from bimanualshift.configs import prior_model_config
 from bimanualshift.data.episode import list_episodes, read_episode
 from bimanualshift.encoders.text import default_text_encoder
 from bimanualshift.geometry.voxels import VoxelGrid
 from bimanualshift.perception.observation import ArmObservationBuilder
-from bimanualshift.priors.peract.configuration_peract import PerActConfig
-from bimanualshift.priors.peract.modeling_peract import PerActPrior
-from bimanualshift.training.augment import random_shift, shift_voxels
+from bimanualshift.priors import PRIORS, UnimanualPrior
+from bimanualshift.sim.task import resolve_task_names, task_names
+from bimanualshift.training.augment import Se3Augmentation, transform_points, transform_quats, transform_voxels
 from bimanualshift.training.loop import run_training
 from bimanualshift.training.optim import make_lamb
-from bimanualshift.training.samples import ArmSamples, build_arm_samples, discrete_targets
+from bimanualshift.training.samples import ArmSamples, action_chunks, build_arm_samples
 from bimanualshift.utils.io import atomic_write_json, atomic_write_text
+
+PRIOR_ALIASES = {"dp": "diffusion"}
 
 
 @dataclass
 class PretrainConfig:
-    tasks: list[str] = field(default_factory=lambda: ["push_button", "pick_cube"])
+    prior: str = "peract"  # a registered prior type: peract, or dp (= diffusion)
+    tasks: list[str] = field(default_factory=lambda: ["unimanual"])  # task names or the group 'unimanual'
     data: str = "data/unimanual"
     validation_data: str = "data/unimanual_val"
-    out: str = "runs/prior_peract"
+    out: str = "runs/prior"
     steps: int = 3000
     batch_size: int = 4
     lr: float = 1e-3
     checkpoint_every: int = 250
-    augment_max_voxels: int = 2
+    augment_translation_m: float = 0.04  # SE(3) augmentation: horizontal shift ...
+    augment_yaw_deg: float = 15.0  # ... and yaw about the grid's vertical axis; 0 and 0 turn it off
     seed: int = 0
-    prior_type: str = "peract"
+    size: str = "default"  # a named model size from bimanualshift.configs (default, debug, ...)
     model: dict = field(default_factory=dict)  # overrides of the prior's config fields, e.g. {"dim": 64}
 
 
-class PriorBatches:
-    """Samples tensors, targets and instruction embeddings for prior training."""
+def prior_type(name: str) -> str:
+    kind = PRIOR_ALIASES.get(name, name)
+    if kind not in PRIORS:
+        raise ValueError(f"unknown prior {name!r}; available: {sorted(PRIORS)} (dp = diffusion)")
+    return kind
 
-    def __init__(self, samples: ArmSamples, config: PerActConfig) -> None:
-        grid = VoxelGrid(tuple(config.bounds), config.voxel_size)
+
+def build_prior(cfg: PretrainConfig) -> UnimanualPrior:
+    kind = prior_type(cfg.prior)
+    cls = PRIORS[kind]
+    values = {**prior_model_config(kind, cfg.size), **cfg.model}
+    config = cls.config_class(**{k: tuple(v) if isinstance(v, list) else v for k, v in values.items()})
+    return cls(config)
+
+
+class PriorBatches:
+    """Samples, their action chunks and instruction embeddings, served as (augmented) training batches."""
+
+    def __init__(self, samples: ArmSamples, grid: VoxelGrid, horizon: int) -> None:
         self.samples = samples
         self.grid = grid
-        targets = discrete_targets(samples, grid, config.rotation_bin_degrees)
-        self.targets = {k: torch.as_tensor(v) for k, v in targets.items()}
+        chunks = action_chunks(samples, horizon)
+        self.actions = {k: torch.as_tensor(v) for k, v in chunks.items()}
         self.voxels = torch.as_tensor(samples.voxels)
         self.proprio = torch.as_tensor(samples.proprio)
         self.text = torch.as_tensor(default_text_encoder().encode(samples.instructions))
 
-    def batch(self, index: torch.Tensor, generator: torch.Generator | None = None, max_shift: int = 0
+    def __len__(self) -> int:
+        return len(self.samples)
+
+    def batch(self, index: torch.Tensor, generator: torch.Generator | None = None,
+              augmentation: Se3Augmentation | None = None
               ) -> tuple[tuple[torch.Tensor, ...], dict[str, torch.Tensor]]:
         voxels = self.voxels[index].float()
         proprio = self.proprio[index].clone()
-        target = {k: v[index].clone() for k, v in self.targets.items()}
-        if generator is not None and max_shift > 0:
-            s = self.grid.size
-            for j in range(len(index)):
-                shift = random_shift(generator, max_shift)
-                idx = np.array(np.unravel_index(int(target["translation_index"][j]), (s, s, s)))
-                moved = idx + shift
-                if np.any(moved < 0) or np.any(moved >= s):
-                    continue  # the target would leave the grid: keep this sample unshifted
-                voxels[j] = shift_voxels(voxels[j], shift)
-                target["translation_index"][j] = int(np.ravel_multi_index(moved, (s, s, s)))
-                proprio[j, :3] += torch.as_tensor(np.asarray(shift) * self.grid.voxel_size, dtype=torch.float32)
-        return (voxels, proprio, self.text[index]), target
+        actions = {k: v[index].clone() for k, v in self.actions.items()}
+        if generator is not None and augmentation is not None:
+            voxels, proprio, actions = augment_batch(voxels, proprio, actions, self.grid, augmentation, generator)
+        return (voxels, proprio, self.text[index]), actions
 
 
-def translation_accuracy(model: PerActPrior, batches: PriorBatches, tolerance_m: float = 0.03) -> float:
-    """Fraction of validation keyframes whose predicted position is within ``tolerance_m`` of the target."""
+def augment_batch(voxels: torch.Tensor, proprio: torch.Tensor, actions: dict[str, torch.Tensor], grid: VoxelGrid,
+                  augmentation: Se3Augmentation, generator: torch.Generator
+                  ) -> tuple[torch.Tensor, torch.Tensor, dict[str, torch.Tensor]]:
+    """Move the scene, the gripper's pose in the proprioception and the action chunk by one random rigid motion
+    per sample; samples whose targets would leave the grid stay as they were."""
+    yaw, translation = augmentation.sample(generator, len(voxels))
+    moved = transform_points(actions["position"], grid, yaw, translation)
+    lower, upper = torch.as_tensor(grid.lower), torch.as_tensor(grid.upper)
+    inside = ((moved >= lower) & (moved < upper)).all(-1).all(-1)
+    yaw, translation = yaw * inside, translation * inside[:, None]
+    actions = {**actions, "position": transform_points(actions["position"], grid, yaw, translation),
+               "quat": transform_quats(actions["quat"], yaw)}
+    proprio = proprio.clone()
+    proprio[:, :3] = transform_points(proprio[:, :3], grid, yaw, translation)
+    proprio[:, 3:7] = transform_quats(proprio[:, 3:7], yaw)
+    return transform_voxels(voxels, grid, yaw, translation), proprio, actions
+
+
+def translation_accuracy(model: UnimanualPrior, batches: PriorBatches, tolerance_m: float = 0.03) -> float:
+    """Fraction of keyframes whose predicted position is within ``tolerance_m`` of the expert's."""
     hits = []
-    with torch.no_grad():
-        for start in range(0, len(batches.samples), 16):
-            index = torch.arange(start, min(start + 16, len(batches.samples)))
-            inputs, _ = batches.batch(index)
-            pred = model.decode_actions(model(*inputs))
-            err = np.linalg.norm(pred.position.numpy() - batches.samples.action_pos[index.numpy()], axis=-1)
-            hits.extend((err < tolerance_m).tolist())
+    for start in range(0, len(batches), 16):
+        index = torch.arange(start, min(start + 16, len(batches)))
+        inputs, actions = batches.batch(index)
+        pred = model.predict(*inputs)
+        err = (pred.position - actions["position"][:, 0]).norm(dim=-1)
+        hits.extend((err < tolerance_m).tolist())
     return float(np.mean(hits))
 
 
-def model_card(cfg: PretrainConfig, step: int, accuracy: float, train_episodes: int, val_episodes: int,
-               wall_time_s: float) -> str:
+def model_card(cfg: PretrainConfig, kind: str, step: int, accuracy: float, train_episodes: int, val_episodes: int,
+               wall_time_s: float, parameters: int) -> str:
     overrides = f" --model '{json.dumps(cfg.model)}'" if cfg.model else ""
-    tasks = " ".join(cfg.tasks)
-    shifts = f"whole-voxel shifts of up to {cfg.augment_max_voxels} voxels"
+    names = resolve_task_names(cfg.tasks)
+    tasks = " ".join(names)
+    augmentation = (f"SE(3): yaw up to {cfg.augment_yaw_deg} deg, horizontal shift up to "
+                    f"{100 * cfg.augment_translation_m:.0f} cm")
     reproduce = "\n".join([
-        f"bimanualshift collect --task {tasks} --episodes {train_episodes // len(cfg.tasks)} "
+        f"bimanualshift collect --task {tasks} --episodes {train_episodes // len(names)} "
         f"--out {cfg.data} --workers 2",
-        f"bimanualshift collect --task {tasks} --episodes {val_episodes // len(cfg.tasks)} --split validation "
-        f"--out {cfg.validation_data} --workers 2",
-        f"bimanualshift pretrain --data {cfg.data} --validation-data {cfg.validation_data} --steps {cfg.steps} "
-        f"--seed {cfg.seed}{overrides}",
+        f"bimanualshift collect --task {tasks} --episodes {val_episodes // len(names)} "
+        f"--split validation --out {cfg.validation_data} --workers 2",
+        f"bimanualshift pretrain --prior {cfg.prior} --size {cfg.size} --tasks {tasks} --data {cfg.data} "
+        f"--validation-data {cfg.validation_data} --steps {cfg.steps} --seed {cfg.seed}{overrides}",
     ])
-    return f"""# PerAct-style single-arm prior
+    what = {"peract": "voxels in the arm's base frame -> translation heat-map, Euler rotation bins, gripper and "
+                      "collision (PerAct-style)",
+            "diffusion": "the arm's voxels as a point cloud + proprioception + instruction -> a denoised chunk of "
+                         "keyframe actions (Diffusion Policy, DDPM training, DDIM inference)"}[kind]
+    return f"""# Single-arm prior: {kind}
 
-A frozen unimanual prior for BimanualShift: voxels in the arm's base frame -> translation heat-map,
-10-degree Euler rotation bins, gripper and collision. Trained on **single-arm demonstrations only**.
+A frozen unimanual prior for BimanualShift: {what}. Trained on **single-arm demonstrations only**.
 
 | | |
 |---|---|
-| training tasks | {", ".join(cfg.tasks)} |
+| training tasks | {", ".join(names)} |
 | training episodes | {train_episodes} (scripted expert, train seeds from 0) |
 | validation episodes | {val_episodes} (validation seeds from 100000; used to pick this checkpoint) |
-| chosen step | {step} of {cfg.steps} (batch {cfg.batch_size}, LAMB lr {cfg.lr}, {shifts}) |
+| chosen step | {step} of {cfg.steps} (batch {cfg.batch_size}, LAMB lr {cfg.lr}, {augmentation}) |
+| parameters | {parameters:,} |
 | validation keyframes within 3 cm | {100 * accuracy:.1f} % |
 | training time to this step | {wall_time_s / 60:.1f} min (optimisation and validation, after data loading) |
 
@@ -116,43 +160,46 @@ Reproduce:
 ```bash
 {reproduce}
 ```
-
-## Measured single-arm success
-
-<!-- results:prior_single_arm -->
-<!-- /results:prior_single_arm -->
-
-Generated from `results/prior_single_arm.json` by `bimanualshift report --readme <this file>`.
 """
 
 
 def pretrain(cfg: PretrainConfig) -> Path:
     started = time.time()
+    kind = prior_type(cfg.prior)
     out = Path(cfg.out)
     out.mkdir(parents=True, exist_ok=True)
     atomic_write_json(out / "config.json", asdict(cfg))
-    if cfg.prior_type != "peract":
-        raise ValueError(f"unknown prior type {cfg.prior_type!r}; available: peract")
-    prior_cfg = PerActConfig(**{k: tuple(v) if isinstance(v, list) else v for k, v in cfg.model.items()})
     torch.manual_seed(cfg.seed)
-    model = PerActPrior(prior_cfg)
-    builder = ArmObservationBuilder(VoxelGrid(tuple(prior_cfg.bounds), prior_cfg.voxel_size))
-    paths = [p for t in cfg.tasks for p in list_episodes(cfg.data, t)]
-    if not paths:
-        raise FileNotFoundError(f"no single-arm demos for {cfg.tasks} under {cfg.data}; run "
-                                f"`bimanualshift collect --task <task> --out {cfg.data}` first")
+    model = build_prior(cfg)
+    prior_cfg = model.config
+    grid = VoxelGrid(tuple(prior_cfg.bounds), prior_cfg.voxel_size)
+    builder = ArmObservationBuilder(grid)
+    tasks = resolve_task_names(cfg.tasks)
+    bimanual = [t for t in tasks if t in task_names(bimanual=True)]
+    if bimanual:
+        raise ValueError(f"{bimanual} are bimanual tasks: priors are pretrained on single-arm tasks only")
+    missing = [t for t in tasks if not list_episodes(cfg.data, t)]
+    if missing:
+        raise FileNotFoundError(f"no single-arm demos for {missing} under {cfg.data}; run "
+                                f"`bimanualshift collect --task {' '.join(missing)} --episodes N --out {cfg.data}` "
+                                "first, or pass --tasks with the tasks you have")
+    paths = [p for t in tasks for p in list_episodes(cfg.data, t)]
     for p in paths[:1]:
         if read_episode(p).arm_names != ["right"]:
             raise ValueError(f"{p} is not a single-arm episode: priors are pretrained on single-arm data only")
-    train = PriorBatches(build_arm_samples(paths, builder, desc="voxelise train"), prior_cfg)
-    val_paths = [p for t in cfg.tasks for p in list_episodes(cfg.validation_data, t)]
-    val = PriorBatches(build_arm_samples(val_paths, builder, desc="voxelise val"), prior_cfg) if val_paths else None
+    train = PriorBatches(build_arm_samples(paths, builder, desc="voxelise train"), grid, model.action_horizon)
+    val_paths = [p for t in tasks for p in list_episodes(cfg.validation_data, t)]
+    val = (PriorBatches(build_arm_samples(val_paths, builder, desc="voxelise val"), grid, model.action_horizon)
+           if val_paths else None)
+    model.set_normalization(train.actions["position"].reshape(-1, 3))
     optimizer = make_lamb(model.parameters(), lr=cfg.lr)
+    augmentation = (Se3Augmentation(cfg.augment_translation_m, cfg.augment_yaw_deg)
+                    if cfg.augment_translation_m > 0 or cfg.augment_yaw_deg > 0 else None)
 
     def step_fn(step: int, gen: torch.Generator) -> dict[str, torch.Tensor]:
-        index = torch.randint(len(train.samples), (cfg.batch_size,), generator=gen)
-        inputs, target = train.batch(index, gen, cfg.augment_max_voxels)
-        return model.loss(model(*inputs), target)
+        index = torch.randint(len(train), (cfg.batch_size,), generator=gen)
+        inputs, actions = train.batch(index, gen, augmentation)
+        return model.compute_loss(inputs, actions, gen)
 
     def validate(step: int) -> float:
         return -translation_accuracy(model, val if val is not None else train)
@@ -160,13 +207,14 @@ def pretrain(cfg: PretrainConfig) -> Path:
     def on_best(step: int, value: float, elapsed_s: float) -> None:
         model.save_pretrained(out / "best", extra={
             "trained_steps": step, "validation_translation_accuracy": -value,
-            "pretrain_tasks": cfg.tasks, "train_episodes": len(paths),
+            "pretrain_tasks": tasks, "train_episodes": len(paths), "training_time_s": elapsed_s,
         })
-        atomic_write_text(out / "best" / "README.md", model_card(cfg, step, -value, len(paths), len(val_paths),
-                                                               elapsed_s))
+        atomic_write_text(out / "best" / "README.md", model_card(
+            cfg, kind, step, -value, len(paths), len(val_paths), elapsed_s,
+            sum(p.numel() for p in model.parameters())))
 
     result = run_training(out, model, optimizer, cfg.steps, step_fn, cfg.seed, cfg.checkpoint_every,
-                          validate, on_best, desc="pretrain")
-    summary = {**result, "wall_time_s": round(time.time() - started, 1), "train_samples": len(train.samples)}
-    (out / "summary.json").write_text(json.dumps(summary, indent=2))
+                          validate, on_best, desc=f"pretrain {kind}")
+    summary = {**result, "wall_time_s": round(time.time() - started, 1), "train_samples": len(train)}
+    atomic_write_json(out / "summary.json", summary)
     return out / "best"

@@ -18,6 +18,8 @@ from safetensors.torch import load_file
 from bimanualshift.data.episode import list_episodes
 from bimanualshift.encoders.text import TextEncoder, default_text_encoder
 from bimanualshift.geometry.frames import rotation_difference
+from bimanualshift.memory.bank import MemoryBank, MemoryEntry
+from bimanualshift.memory.reference import REFERENCE_DIM, episode_key, reference_vector
 from bimanualshift.methods.bimanualshift import save_residual
 from bimanualshift.methods.stages import FrozenPriorStage
 from bimanualshift.priors.base import UnimanualPrior
@@ -26,7 +28,7 @@ from bimanualshift.residual.skills import SkillBasis
 from bimanualshift.training.augment import random_shift, shift_voxels
 from bimanualshift.training.loop import run_training
 from bimanualshift.training.optim import make_lamb
-from bimanualshift.training.samples import build_arm_samples
+from bimanualshift.training.samples import ArmSamples, build_arm_samples
 from bimanualshift.utils.io import atomic_write_json
 
 ARM_ORDER = ("left", "right")  # the Manager's arm one-hot; single-arm data counts as "left"
@@ -47,7 +49,11 @@ class TrainConfig:
     checkpoint_every: int = 250
     use_projection: bool = True
     segmenter: str = "simulator"  # simulator | grounded_sam | degraded-mild | degraded-strong
+    grounding_dino: str = ""  # grounded_sam only: local save_pretrained folder or hub id (empty: the default)
+    sam: str = ""  # grounded_sam only: local folder or hub id of SAM (empty: the default)
     structured: bool = True
+    retrieval: bool = False  # the memory bank's temporal reference as a Manager input (Eq. 8-9)
+    retrieval_threshold: float = 0.5  # cosine similarity below which no reference is used
     augment_copies: int = 0  # shifted copies of every demo keyframe, each through the frozen prior
     augment_max_voxels: int = 2
     seed: int = 0
@@ -61,12 +67,16 @@ class ResidualData:
 
 
 def residual_data(paths: list[Path], stage: FrozenPriorStage, text_encoder: TextEncoder, desc: str,
-                  augment_copies: int = 0, augment_max_voxels: int = 0, seed: int = 0) -> ResidualData:
+                  augment_copies: int = 0, augment_max_voxels: int = 0, seed: int = 0,
+                  memory: MemoryBank | None = None, own_memory: bool = False) -> ResidualData:
     """Manager inputs and residual targets for every (keyframe, arm), from the frozen prior's outputs.
 
     With ``augment_copies`` > 0, each sample is also seen through that many whole-voxel translations of
     the scene (the targets and both arms' proprioception move with it), and the frozen prior is run on
     each shifted copy: augmentation the prior's cache allows, since it is computed once before training.
+
+    With a ``memory`` bank, each sample also gets the retrieved temporal reference of its episode; with
+    ``own_memory`` the bank holds these very episodes (in order) and an episode never retrieves itself.
     """
     samples = build_arm_samples(paths, stage.builder, stage.max_keyframes, desc=desc)
     grid = stage.builder.grid
@@ -95,12 +105,61 @@ def residual_data(paths: list[Path], stage: FrozenPriorStage, text_encoder: Text
                 features.append(out.features)
                 base.append(out.base_action())
         features_t, base_t = torch.cat(features), torch.cat(base)
-        inputs = manager_inputs(features_t, proprio, other, text, base_t, arm_index, len(ARM_ORDER))
+        if copy == 0:
+            first_features = features_t
+        reference = None
+        if memory is not None:
+            reference = retrieved_references(samples, first_features, text, base_t, memory, own_memory)
+        inputs = manager_inputs(features_t, proprio, other, text, base_t, arm_index, len(ARM_ORDER), reference)
         translation = torch.as_tensor(samples.action_pos + offsets) - base_t[:, :3]
         rotation = torch.as_tensor(np.stack([rotation_difference(t, b) for t, b in
                                              zip(samples.action_quat, base_t[:, 3:7].numpy())]), dtype=torch.float32)
         parts.append(ResidualData(inputs, translation, rotation))
     return ResidualData(*(torch.cat([getattr(p, f) for p in parts]) for f in ("inputs", "translation", "rotation")))
+
+
+def episode_memory(samples: ArmSamples, features: torch.Tensor, text: torch.Tensor, threshold: float,
+                   task: str = "") -> MemoryBank:
+    """A bank of the demos themselves (one entry per episode, in episode order): key from the instruction and
+    the prior's features of both arms at keyframe 0, trajectory = every keyframe's arm-frame action per arm."""
+    keys, trajectories, names = _episode_rows(samples, features, text)
+    bank = MemoryBank(keys[0].shape[0], threshold)
+    for e, (key, trajectory) in enumerate(zip(keys, trajectories)):
+        bank.add(key, trajectory, MemoryEntry(task, names[e], "demo", e))
+    return bank
+
+
+def _episode_rows(samples: ArmSamples, features: torch.Tensor, text: torch.Tensor
+                  ) -> tuple[list[np.ndarray], list[np.ndarray], list[str]]:
+    keys, trajectories, names = [], [], []
+    for e in np.unique(samples.episode):
+        rows = np.flatnonzero(samples.episode == e)
+        arms = list(dict.fromkeys(samples.arm[i] for i in rows))
+        first = [features[next(i for i in rows if samples.keyframe[i] == 0 and samples.arm[i] == a)].numpy()
+                 for a in arms]
+        keys.append(episode_key(text[rows[0]].numpy(), first))
+        steps = int(samples.keyframe[rows].max()) + 1
+        trajectory = np.zeros((steps, len(arms), 8), np.float32)
+        for i in rows:
+            trajectory[samples.keyframe[i], arms.index(samples.arm[i])] = np.r_[
+                samples.action_pos[i], samples.action_quat[i], samples.gripper_open[i]]
+        trajectories.append(trajectory)
+        names.append(samples.instructions[rows[0]])
+    return keys, trajectories, names
+
+
+def retrieved_references(samples: ArmSamples, first_features: torch.Tensor, text: torch.Tensor,
+                         base: torch.Tensor, memory: MemoryBank, own_memory: bool) -> torch.Tensor:
+    """(N, REFERENCE_DIM): each sample's retrieved reference at its keyframe, for its arm."""
+    keys, _, _ = _episode_rows(samples, first_features, text)
+    episodes = list(np.unique(samples.episode))
+    found = [memory.search(key, exclude={e} if own_memory else set()) for e, key in enumerate(keys)]
+    out = np.zeros((len(samples), REFERENCE_DIM), np.float32)
+    for i in range(len(samples)):
+        e = episodes.index(samples.episode[i])
+        arms = list(dict.fromkeys(samples.arm[j] for j in np.flatnonzero(samples.episode == samples.episode[i])))
+        out[i] = reference_vector(found[e], int(samples.keyframe[i]), arms.index(samples.arm[i]), base[i].numpy())
+    return torch.as_tensor(out)
 
 
 def bc_loss(out: dict[str, torch.Tensor], translation: torch.Tensor, rotation: torch.Tensor, beta: float
@@ -122,6 +181,23 @@ def translation_report(residual: ResidualPolicy, data: ResidualData) -> dict[str
     return report
 
 
+def demo_memory(paths: list[Path], stage: FrozenPriorStage, text_encoder: TextEncoder, threshold: float,
+                task: str = "") -> MemoryBank:
+    """The memory bank of the training demos (verified successes: collection keeps successful episodes only)."""
+    samples = build_arm_samples(paths, stage.builder, stage.max_keyframes, desc="memory keys")
+    text = torch.as_tensor(text_encoder.encode(samples.instructions))
+    with torch.no_grad():
+        features = torch.cat([stage.prior.predict(torch.as_tensor(samples.voxels[s:s + 32]).float(),
+                                                  torch.as_tensor(samples.proprio[s:s + 32]), text[s:s + 32]).features
+                              for s in range(0, len(samples), 32)])
+    return episode_memory(samples, features, text, threshold, task)
+
+
+def segmenter_options(grounding_dino: str, sam: str) -> dict[str, str]:
+    """GroundedSamConfig overrides for the weights' locations; empty strings keep the defaults."""
+    return {k: v for k, v in (("detector", grounding_dino), ("sam", sam)) if v}
+
+
 def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Path:
     started = time.time()
     out = Path(cfg.out)
@@ -129,20 +205,25 @@ def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Pat
     atomic_write_json(out / "train_config.json", asdict(cfg))
     text_encoder = default_text_encoder()
     prior = prior if prior is not None else UnimanualPrior.from_pretrained(cfg.prior)
-    stage = FrozenPriorStage(prior, text_encoder, use_projection=cfg.use_projection, segmenter=cfg.segmenter)
+    stage = FrozenPriorStage(prior, text_encoder, use_projection=cfg.use_projection, segmenter=cfg.segmenter,
+                             segmenter_options=segmenter_options(cfg.grounding_dino, cfg.sam))
     paths = list_episodes(cfg.data, cfg.task)[: cfg.demos]
     if not paths:
         raise FileNotFoundError(f"no bimanual demos for {cfg.task} under {cfg.data}; run "
                                 f"`bimanualshift collect --task {cfg.task} --out {cfg.data}` first")
+    memory = demo_memory(paths, stage, text_encoder, cfg.retrieval_threshold, cfg.task) if cfg.retrieval else None
     train = residual_data(paths, stage, text_encoder, "prior outputs (train)", cfg.augment_copies,
-                          cfg.augment_max_voxels, cfg.seed)
+                          cfg.augment_max_voxels, cfg.seed, memory, own_memory=True)
     val_paths = list_episodes(cfg.validation_data, cfg.task)
-    val = residual_data(val_paths, stage, text_encoder, "prior outputs (val)") if val_paths else train
+    val = residual_data(val_paths, stage, text_encoder, "prior outputs (val)", memory=memory) if val_paths else train
     torch.manual_seed(cfg.seed)  # here, so how the prior was obtained cannot change the residual's init
-    rcfg = ResidualConfig(feature_dim=prior.feature_dim, text_dim=text_encoder.dim, structured=cfg.structured)
+    rcfg = ResidualConfig(feature_dim=prior.feature_dim, text_dim=text_encoder.dim, structured=cfg.structured,
+                          reference_dim=REFERENCE_DIM if cfg.retrieval else 0)
     residual = ResidualPolicy(rcfg, SkillBasis.from_verbs(text_encoder))
     optimizer = make_lamb(residual.parameters(), lr=cfg.lr)
     checkpoint_meta = {"prior": cfg.prior, "use_projection": cfg.use_projection, "segmenter": cfg.segmenter,
+                       "retrieval": cfg.retrieval,
+                       "segmenter_options": segmenter_options(cfg.grounding_dino, cfg.sam),
                        "task": cfg.task, "demos": len(paths),
                        "text_encoder": getattr(text_encoder, "name", "custom")}
 
@@ -155,7 +236,8 @@ def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Pat
             return float(bc_loss(residual(val.inputs), val.translation, val.rotation, cfg.beta)["total"])
 
     def on_best(step: int, value: float, elapsed_s: float) -> None:
-        save_residual(out / "best", residual, {**checkpoint_meta, "trained_steps": step, "validation_loss": value})
+        save_residual(out / "best", residual, {**checkpoint_meta, "trained_steps": step, "validation_loss": value},
+                      memory)
 
     result = run_training(out, residual, optimizer, cfg.steps, step_fn, cfg.seed, cfg.checkpoint_every,
                           validate, on_best, desc="train residual")

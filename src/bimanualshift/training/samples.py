@@ -10,8 +10,7 @@ from tqdm import tqdm
 
 from bimanualshift.data.episode import read_episode
 from bimanualshift.data.frames import KeyframeObservation
-from bimanualshift.geometry.frames import ArmFrame, quat_to_euler_bins
-from bimanualshift.geometry.voxels import VoxelGrid
+from bimanualshift.geometry.frames import ArmFrame
 from bimanualshift.perception.observation import ArmObservationBuilder
 
 
@@ -61,12 +60,19 @@ def build_arm_samples(paths: list[Path], builder: ArmObservationBuilder, max_key
     return ArmSamples(**{k: (v if k in ("instructions", "arm") else np.asarray(v)) for k, v in rows.items()})
 
 
-def discrete_targets(samples: ArmSamples, grid: VoxelGrid, bin_degrees: float) -> dict[str, np.ndarray]:
-    idx = grid.point_to_index(samples.action_pos)
-    s = grid.size
-    return {
-        "translation_index": (idx[:, 0] * s + idx[:, 1]) * s + idx[:, 2],
-        "rotation_bins": np.stack([quat_to_euler_bins(q, bin_degrees) for q in samples.action_quat]),
-        "gripper_open": samples.gripper_open,
-        "ignore_collisions": samples.ignore_collisions,
-    }
+def action_chunks(samples: ArmSamples, horizon: int) -> dict[str, np.ndarray]:
+    """Per sample, its own keyframe action and the next ``horizon - 1`` of the same arm in the same episode
+    (the last one repeated past the episode's end): position (N, H, 3), quat (N, H, 4), gripper_open and
+    ignore_collisions (N, H) int64."""
+    if horizon < 1:
+        raise ValueError(f"the action horizon must be >= 1, got {horizon}")
+    where = {(int(e), arm, int(k)): i for i, (e, arm, k) in enumerate(zip(samples.episode, samples.arm,
+                                                                           samples.keyframe))}
+    rows = np.empty((len(samples), horizon), dtype=np.int64)
+    for i, (e, arm, k) in enumerate(zip(samples.episode, samples.arm, samples.keyframe)):
+        j = i
+        for h in range(horizon):
+            j = where.get((int(e), arm, int(k) + h), j)
+            rows[i, h] = j
+    return {"position": samples.action_pos[rows], "quat": samples.action_quat[rows],
+            "gripper_open": samples.gripper_open[rows], "ignore_collisions": samples.ignore_collisions[rows]}

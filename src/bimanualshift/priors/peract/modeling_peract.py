@@ -9,7 +9,7 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
-from bimanualshift.geometry.frames import euler_bins_to_quat
+from bimanualshift.geometry.frames import euler_bins_to_quat, quat_to_euler_bins
 from bimanualshift.geometry.voxels import VOXEL_CHANNELS, VoxelGrid
 from bimanualshift.priors.base import PriorOutput, UnimanualPrior, register_prior
 from bimanualshift.priors.peract.configuration_peract import PerActConfig
@@ -142,6 +142,24 @@ class PerActPrior(UnimanualPrior):
     @torch.no_grad()
     def predict(self, voxels: torch.Tensor, proprio: torch.Tensor, text: torch.Tensor) -> PriorOutput:
         return self.decode_actions(self.forward(voxels, proprio, text))
+
+    def discrete_targets(self, actions: dict[str, torch.Tensor]) -> dict[str, torch.Tensor]:
+        """Continuous arm-frame targets (first keyframe of the chunk) -> voxel index, Euler bins, flags."""
+        c = self.config
+        s = c.voxel_size
+        idx = self.grid.point_to_index(actions["position"][:, 0].detach().cpu().numpy())
+        bins = np.stack([quat_to_euler_bins(q, c.rotation_bin_degrees)
+                         for q in actions["quat"][:, 0].detach().cpu().numpy()])
+        return {
+            "translation_index": torch.as_tensor((idx[:, 0] * s + idx[:, 1]) * s + idx[:, 2]),
+            "rotation_bins": torch.as_tensor(bins),
+            "gripper_open": actions["gripper_open"][:, 0].long(),
+            "ignore_collisions": actions["ignore_collisions"][:, 0].long(),
+        }
+
+    def compute_loss(self, inputs: tuple[torch.Tensor, ...], actions: dict[str, torch.Tensor],
+                     generator: torch.Generator | None = None) -> dict[str, torch.Tensor]:
+        return self.loss(self.forward(*inputs), self.discrete_targets(actions))
 
     def loss(self, out: dict[str, torch.Tensor], target: dict[str, torch.Tensor]) -> dict[str, torch.Tensor]:
         """Cross-entropy over voxels, rotation bins, gripper and collision (PerAct's objective)."""

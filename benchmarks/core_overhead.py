@@ -1,0 +1,133 @@
+"""What the residual branch and retrieval cost on top of the frozen prior (writes results/core_overhead.json).
+
+    .venv/bin/python benchmarks/core_overhead.py --prior peract_unimanual --task push_two_buttons \
+        [--train-data data/bimanual --train-steps 1500]
+
+* per-keyframe inference of the full method (projection, frozen prior per arm, retrieval, Manager, Z, G)
+  against the frozen prior alone on the same projected observations (target <= 1.15x);
+* trainable (Manager, Z, G) / frozen (prior) parameters (target <= 3 %);
+* retrieval time with 10^3, 10^4 and 10^5 memory entries of the method's key width (target <= 1 ms at 10^5);
+* with ``--train-data``: wall time of ``bimanualshift train`` on 30 demos of the task.
+"""
+
+from __future__ import annotations
+
+import argparse
+import tempfile
+import time
+
+import numpy as np
+import torch
+from tqdm import tqdm
+
+from bimanualshift.data.frames import KeyframeObservation, scene_of_env
+from bimanualshift.data.seeds import split_seeds
+from bimanualshift.encoders.text import default_text_encoder
+from bimanualshift.evaluation.report import write_result
+from bimanualshift.memory.bank import MemoryBank, MemoryEntry, memory_key
+from bimanualshift.memory.reference import REFERENCE_DIM
+from bimanualshift.methods.bimanualshift import BimanualShift
+from bimanualshift.methods.leader_follower import FrozenPriorPerArm
+from bimanualshift.methods.stages import FrozenPriorStage
+from bimanualshift.priors import UnimanualPrior
+from bimanualshift.residual.manager import ResidualConfig, ResidualPolicy
+from bimanualshift.residual.skills import SkillBasis
+from bimanualshift.sim.env import ManipulationEnv
+
+
+def median_ms(fn, repeats: int) -> float:  # noqa: ANN001 - any callable
+    fn()
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        fn()
+        times.append(1000 * (time.perf_counter() - t0))
+    return float(np.median(times))
+
+
+def random_bank(entries: int, dim: int, rng: np.random.Generator, index: str = "flat") -> MemoryBank:
+    bank = MemoryBank(dim, threshold=0.5, index=index)
+    keys = rng.normal(size=(entries, dim)).astype(np.float32)
+    keys /= np.linalg.norm(keys, axis=1, keepdims=True)
+    trajectory = np.zeros((4, 2, 8), np.float32)
+    bank.index.add(keys)  # bulk insert; entries below mirror what add() stores
+    bank.entries = [MemoryEntry("bench", "", "demo", i) for i in range(entries)]
+    bank.trajectories = [trajectory] * entries
+    return bank
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--prior", default="peract_unimanual")
+    parser.add_argument("--task", default="push_two_buttons")
+    parser.add_argument("--repeats", type=int, default=20)
+    parser.add_argument("--train-data", default="", help="bimanual demos for the training-time measurement")
+    parser.add_argument("--train-steps", type=int, default=1500)
+    parser.add_argument("--out", default="results/core_overhead.json")
+    args = parser.parse_args()
+    torch.set_num_threads(2)
+    started = time.time()
+    text_encoder = default_text_encoder()
+    prior = UnimanualPrior.from_pretrained(args.prior)
+    stage = FrozenPriorStage(prior, text_encoder)
+    seed = split_seeds("test", 1)[0]
+    env = ManipulationEnv(args.task)
+    obs, _ = env.reset(seed=seed)
+    frame = KeyframeObservation.from_env(obs, scene_of_env(env))
+    env.close()
+
+    rng = np.random.default_rng(0)
+    key_dim = text_encoder.dim + 2 * prior.feature_dim
+    memory = random_bank(1000, key_dim, rng)
+    rcfg = ResidualConfig(feature_dim=prior.feature_dim, text_dim=text_encoder.dim, reference_dim=REFERENCE_DIM)
+    residual = ResidualPolicy(rcfg, SkillBasis.from_verbs(text_encoder))
+    full = BimanualShift(stage, residual, memory)
+    alone = FrozenPriorPerArm(stage)
+
+    def full_step() -> None:
+        full.reset()  # retrieval included in every timed call
+        full.act(frame)
+
+    rows = [
+        {"what": "frozen prior alone, both arms (ms per keyframe)", "value": round(median_ms(lambda: alone.act(frame),
+                                                                                            args.repeats), 2)},
+        {"what": "full method, both arms (ms per keyframe)", "value": round(median_ms(full_step, args.repeats), 2)},
+    ]
+    rows.append({"what": "full / prior alone", "value": round(rows[1]["value"] / rows[0]["value"], 3),
+                 "target": "<= 1.15"})
+    trainable = sum(p.numel() for p in residual.parameters())
+    frozen = sum(p.numel() for p in prior.parameters())
+    rows += [{"what": "trainable parameters (Manager, Z, G)", "value": trainable},
+             {"what": "frozen parameters (prior)", "value": frozen},
+             {"what": "trainable / frozen", "value": round(trainable / frozen, 4), "target": "<= 0.03"}]
+    for index in ("flat", "hnsw"):
+        for entries in tqdm([1_000, 10_000, 100_000], desc=f"retrieval ({index})"):
+            bank = random_bank(entries, key_dim, rng, index)
+            query = memory_key(rng.normal(size=text_encoder.dim), rng.normal(size=2 * prior.feature_dim))
+            ms = median_ms(lambda b=bank, q=query: b.search(q), 50)
+            rows.append({"what": f"retrieval, {index} index, {entries} entries (ms)", "value": round(ms, 3),
+                         **({"target": "<= 1"} if entries == 100_000 else {})})
+    seeds = {"test": [seed]}
+    if args.train_data:
+        from bimanualshift.training.residual import TrainConfig, train_residual
+
+        with tempfile.TemporaryDirectory() as out:
+            t0 = time.time()
+            train_residual(TrainConfig(task=args.task, prior=args.prior, data=args.train_data,
+                                       validation_data=args.train_data, out=out, demos=30, steps=args.train_steps))
+            rows.append({"what": f"train on 30 demos, {args.train_steps} steps (s)",
+                         "value": round(time.time() - t0, 1)})
+        seeds["train"] = list(range(30))
+    for r in rows:
+        print(f"{r['what']:52s} {r['value']}")
+    command = (f"python benchmarks/core_overhead.py --prior {args.prior} --task {args.task} --repeats {args.repeats}"
+               + (f" --train-data {args.train_data} --train-steps {args.train_steps}" if args.train_data else ""))
+    write_result(args.out, command, seeds, started, rows,
+                 notes="one process, 2 torch threads; inference on the first observation of one test seed, "
+                       "retrieval included in every full-method call; untrained residual (its cost does not depend "
+                       "on its weights)")
+    print(f"wrote {args.out}")
+
+
+if __name__ == "__main__":
+    main()

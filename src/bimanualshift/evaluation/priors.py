@@ -1,0 +1,128 @@
+"""How good the frozen single-arm priors are on their own (`bimanualshift prior-report`): success per single-arm
+task with 95 % intervals, parameter count, inference time per call and training time."""
+
+from __future__ import annotations
+
+import json
+import multiprocessing as mp
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+from tqdm import tqdm
+
+from bimanualshift.evaluation.stats import wilson_interval
+
+# Rollouts of a prior stop at this multiple of the expert's keyframe count on the same seed.
+KEYFRAME_BUDGET = 2
+
+_CACHE: dict[Any, Any] = {}
+
+
+@dataclass(frozen=True)
+class PriorEpisode:
+    prior: str
+    task: str
+    seed: int
+    success: bool
+    keyframes: int
+
+
+def _policy(prior: str) -> Any:
+    from bimanualshift.encoders.text import default_text_encoder
+    from bimanualshift.methods.leader_follower import FrozenPriorPerArm
+
+    key = ("policy", prior)
+    if key not in _CACHE:
+        _CACHE[key] = FrozenPriorPerArm.from_pretrained(prior, default_text_encoder(), name=prior)
+    return _CACHE[key]
+
+
+def _env(task: str) -> Any:
+    from bimanualshift.sim.env import ManipulationEnv
+
+    key = ("env", task)
+    if key not in _CACHE:
+        _CACHE[key] = ManipulationEnv(task)
+    return _CACHE[key]
+
+
+def run_prior_episode(job: tuple[str, str, int]) -> PriorEpisode:
+    from bimanualshift.evaluation.rollout import rollout
+
+    torch.set_num_threads(1)  # one process per core
+    prior, task, seed = job
+    env = _env(task)
+    env.reset(seed=seed, options={"render": False})
+    budget = KEYFRAME_BUDGET * len(env.expert_keyframes())
+    record = rollout(env, _policy(prior), seed, budget)
+    return PriorEpisode(prior, task, seed, record.success, record.keyframes)
+
+
+def evaluate_priors(priors: list[str], tasks: list[str], seeds: list[int], workers: int = 1) -> list[PriorEpisode]:
+    jobs = [(p, t, s) for p in priors for t in tasks for s in seeds]
+    results: list[PriorEpisode] = []
+    bar = tqdm(total=len(jobs), desc="prior episodes", unit="ep")
+    if workers <= 1:
+        for job in jobs:
+            results.append(run_prior_episode(job))
+            bar.update()
+    else:
+        with mp.get_context("spawn").Pool(workers) as pool:
+            for episode in pool.imap_unordered(run_prior_episode, jobs, chunksize=4):
+                results.append(episode)
+                bar.update()
+    bar.close()
+    return sorted(results, key=lambda e: (e.prior, e.task, e.seed))
+
+
+def inference_ms(prior: str, task: str, seed: int, calls: int = 20, threads: int = 2) -> float:
+    """Median milliseconds of one ``predict`` call for one arm on real observations, with ``threads`` threads."""
+    from bimanualshift.data.frames import KeyframeObservation, scene_of_env
+
+    torch.set_num_threads(threads)
+    policy = _policy(prior)
+    stage = policy.stage
+    env = _env(task)
+    obs, _ = env.reset(seed=seed)
+    frame = KeyframeObservation.from_env(obs, scene_of_env(env))
+    per_arm = stage.builder.build(frame)
+    arm = frame.scene.arm_names[0]
+    voxels = torch.as_tensor(per_arm[arm].voxels)[None]
+    proprio = torch.as_tensor(np.r_[per_arm[arm].proprio, 0.0].astype(np.float32))[None]
+    text = stage.text(frame.instruction)
+    stage.prior.predict(voxels, proprio, text)  # warm-up
+    times = []
+    for _ in range(calls):
+        t0 = time.perf_counter()
+        stage.prior.predict(voxels, proprio, text)
+        times.append(1000 * (time.perf_counter() - t0))
+    return float(np.median(times))
+
+
+def prior_rows(priors: list[str], episodes: list[PriorEpisode], tasks: list[str], seed: int) -> list[dict]:
+    from bimanualshift.priors.base import resolve_prior_path
+
+    rows = []
+    for prior in priors:
+        path = resolve_prior_path(prior)
+        config = json.loads((Path(path) / "config.json").read_text())
+        model = _policy(prior).stage.prior
+        per_task = {}
+        for task in tasks:
+            mine = [e for e in episodes if e.prior == prior and e.task == task]
+            k = sum(e.success for e in mine)
+            lo, hi = wilson_interval(k, len(mine))
+            per_task[task] = {"success": round(k / len(mine), 4), "ci95": [round(lo, 4), round(hi, 4)],
+                              "episodes": len(mine), "failed_seeds": [e.seed for e in mine if not e.success]}
+        rows.append({
+            "prior": prior, "type": config["type"],
+            "mean_success": round(float(np.mean([v["success"] for v in per_task.values()])), 4),
+            "tasks": per_task, "parameters": sum(p.numel() for p in model.parameters()),
+            "inference_ms_per_arm": round(inference_ms(prior, tasks[0], seed), 1),
+            "training_time_s": config.get("training_time_s"), "trained_steps": config.get("trained_steps"),
+        })
+    return rows

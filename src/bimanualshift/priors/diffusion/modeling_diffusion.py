@@ -1,0 +1,172 @@
+"""A Diffusion Policy prior: point cloud + proprioception + language -> a chunk of keyframe actions.
+
+The observation encoder reads the arm's voxel grid (already projected by the arm-conditioned projection when it
+serves a bimanual robot) as a coloured point cloud of occupied voxels and encodes it with a PointNet (shared MLP,
+max-pool). A transformer denoiser predicts the noise added to a normalised action chunk (position, 6-D rotation,
+gripper, collision flag per keyframe), conditioned on the observation, instruction and diffusion step. Training
+is DDPM (epsilon prediction), inference a few DDIM steps from seeded noise; both schedulers come from
+``diffusers``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import torch
+import torch.nn.functional as F
+from diffusers import DDIMScheduler, DDPMScheduler
+from torch import nn
+
+from bimanualshift.geometry.torch_rotations import matrix_to_quat, quat_to_matrix, rotation_6d_to_matrix
+from bimanualshift.geometry.voxels import VoxelGrid
+from bimanualshift.priors.base import PriorOutput, UnimanualPrior, register_prior
+from bimanualshift.priors.diffusion.configuration_diffusion import DiffusionConfig
+
+
+def sinusoidal_embedding(t: torch.Tensor, dim: int) -> torch.Tensor:
+    half = dim // 2
+    freqs = torch.exp(-math.log(10000.0) * torch.arange(half, dtype=torch.float32) / half)
+    angles = t.float()[:, None] * freqs[None]
+    return torch.cat([angles.sin(), angles.cos()], dim=-1)
+
+
+class PointEncoder(nn.Module):
+    """PointNet over the occupied voxels: (xyz in [-1, 1], rgb) -> shared MLP -> masked max-pool."""
+
+    def __init__(self, voxel_size: int, max_points: int, dim: int) -> None:
+        super().__init__()
+        self.max_points = max_points
+        coords = torch.stack(torch.meshgrid(*[torch.linspace(-1, 1, voxel_size)] * 3, indexing="ij"))
+        self.register_buffer("coords", coords.flatten(1).T.contiguous(), persistent=False)  # (S^3, 3)
+        # Fixed tie-breaking noise: which voxels are kept when more than max_points are occupied is random but
+        # the same on every call, so a prediction does not depend on a global RNG.
+        tie = torch.rand(voxel_size**3, generator=torch.Generator().manual_seed(0))
+        self.register_buffer("tie", tie, persistent=False)
+        self.mlp = nn.Sequential(nn.Linear(6, dim // 2), nn.GELU(), nn.Linear(dim // 2, dim), nn.GELU(),
+                                 nn.Linear(dim, dim))
+
+    def forward(self, voxels: torch.Tensor) -> torch.Tensor:
+        b = voxels.shape[0]
+        flat = voxels.flatten(2)  # (B, 4, S^3)
+        occupied = flat[:, 0] > 0.5
+        k = min(self.max_points, flat.shape[-1])
+        score = occupied.float() * 2 + self.tie  # occupied first, then a fixed random order
+        index = score.topk(k, dim=-1).indices  # (B, k)
+        picked_occ = occupied.gather(1, index)
+        xyz = self.coords[index]  # (B, k, 3)
+        rgb = flat[:, 1:].gather(2, index[:, None].expand(b, 3, k)).transpose(1, 2)
+        features = self.mlp(torch.cat([xyz, rgb], dim=-1))
+        features = features.masked_fill(~picked_occ[..., None], float("-inf")).amax(1)
+        return torch.where(torch.isfinite(features), features, torch.zeros_like(features))  # empty scene -> 0
+
+
+@register_prior("diffusion")
+class DiffusionPrior(UnimanualPrior):
+    config_class = DiffusionConfig
+
+    def __init__(self, config: DiffusionConfig) -> None:
+        super().__init__(config)
+        c = config
+        self.grid = VoxelGrid(tuple(c.bounds), c.voxel_size)
+        self.points = PointEncoder(c.voxel_size, c.max_points, c.point_dim)
+        self.obs_tokens = nn.ModuleDict({
+            "points": nn.Linear(c.point_dim, c.dim),
+            "proprio": nn.Linear(c.proprio_dim + 1, c.dim),
+            "text": nn.Linear(c.text_dim, c.dim),
+        })
+        self.time_mlp = nn.Sequential(nn.Linear(c.dim, c.dim), nn.GELU(), nn.Linear(c.dim, c.dim))
+        self.action_in = nn.Linear(c.action_dim, c.dim)
+        self.action_pos = nn.Parameter(torch.randn(1, c.horizon, c.dim) * 0.02)
+        layer = nn.TransformerDecoderLayer(c.dim, c.heads, 2 * c.dim, dropout=0.0, batch_first=True, norm_first=True)
+        self.denoiser = nn.TransformerDecoder(layer, c.layers)
+        self.action_out = nn.Sequential(nn.LayerNorm(c.dim), nn.Linear(c.dim, c.action_dim))
+        # Normalisation of actions to [-1, 1]; set from the training data by `set_normalization`, saved with the
+        # weights (they are buffers).
+        self.register_buffer("action_low", torch.cat([torch.as_tensor(self.grid.lower), -torch.ones(c.action_dim - 3)]))
+        self.register_buffer("action_high", torch.cat([torch.as_tensor(self.grid.upper), torch.ones(c.action_dim - 3)]))
+        schedule = {"num_train_timesteps": c.train_timesteps, "beta_schedule": "squaredcos_cap_v2",
+                    "clip_sample": True, "prediction_type": "epsilon"}
+        self.train_scheduler = DDPMScheduler(**schedule)
+        self.sample_scheduler = DDIMScheduler(**schedule)
+
+    @property
+    def feature_dim(self) -> int:
+        return self.config.point_dim
+
+    @property
+    def action_horizon(self) -> int:
+        return self.config.horizon
+
+    def set_normalization(self, positions: torch.Tensor) -> None:
+        """Positions (N, 3) of the training actions fix the position range (with a 5 cm margin)."""
+        margin = 0.05
+        self.action_low[:3] = positions.min(0).values - margin
+        self.action_high[:3] = positions.max(0).values + margin
+
+    # -- actions <-> normalised vectors -----------------------------------------------------------------------
+    def encode_actions(self, position: torch.Tensor, quat: torch.Tensor, gripper: torch.Tensor,
+                       collision: torch.Tensor) -> torch.Tensor:
+        """(B, H, 3), (B, H, 4), (B, H), (B, H) -> (B, H, action_dim) in [-1, 1]."""
+        rot6 = quat_to_matrix(quat)[..., :, :2].transpose(-1, -2).flatten(-2)  # first two columns
+        flags = torch.stack([gripper.float(), collision.float()], dim=-1) * 2 - 1  # {0, 1} -> {-1, 1}
+        raw = torch.cat([position, rot6, flags], dim=-1)
+        scaled = 2 * (raw - self.action_low) / (self.action_high - self.action_low) - 1
+        return scaled.clamp(-1, 1)
+
+    def decode_actions(self, x: torch.Tensor) -> dict[str, torch.Tensor]:
+        raw = (x.clamp(-1, 1) + 1) / 2 * (self.action_high - self.action_low) + self.action_low
+        return {"position": raw[..., :3], "quat": matrix_to_quat(rotation_6d_to_matrix(raw[..., 3:9])),
+                "gripper_open": raw[..., 9], "ignore_collisions": raw[..., 10]}
+
+    # -- networks ----------------------------------------------------------------------------------------------
+    def observation(self, voxels: torch.Tensor, proprio: torch.Tensor, text: torch.Tensor
+                    ) -> tuple[torch.Tensor, torch.Tensor]:
+        """Observation tokens (B, 3, dim) for the denoiser and the visual features (B, point_dim)."""
+        feature = self.points(voxels.float())
+        tokens = torch.stack([self.obs_tokens["points"](feature), self.obs_tokens["proprio"](proprio),
+                              self.obs_tokens["text"](text)], dim=1)
+        return tokens, feature
+
+    def denoise(self, noisy: torch.Tensor, t: torch.Tensor, tokens: torch.Tensor) -> torch.Tensor:
+        time = self.time_mlp(sinusoidal_embedding(t, self.config.dim))[:, None]
+        x = self.action_in(noisy) + self.action_pos + time
+        return self.action_out(self.denoiser(x, torch.cat([time, tokens], dim=1)))
+
+    def compute_loss(self, inputs: tuple[torch.Tensor, ...], actions: dict[str, torch.Tensor],
+                     generator: torch.Generator | None = None) -> dict[str, torch.Tensor]:
+        """DDPM epsilon-prediction loss on the normalised action chunk."""
+        clean = self.encode_actions(actions["position"], actions["quat"], actions["gripper_open"],
+                                    actions["ignore_collisions"])
+        tokens, _ = self.observation(*inputs)
+        b = clean.shape[0]
+        noise = torch.randn(clean.shape, generator=generator)
+        t = torch.randint(0, self.config.train_timesteps, (b,), generator=generator)
+        noisy = self.train_scheduler.add_noise(clean, noise, t)
+        loss = F.mse_loss(self.denoise(noisy, t, tokens), noise)
+        return {"diffusion": loss, "total": loss}
+
+    @torch.no_grad()
+    def sample(self, voxels: torch.Tensor, proprio: torch.Tensor, text: torch.Tensor
+               ) -> tuple[torch.Tensor, torch.Tensor]:
+        """DDIM sampling of the normalised chunk (B, H, action_dim) and the visual features."""
+        c = self.config
+        tokens, feature = self.observation(voxels, proprio, text)
+        generator = torch.Generator().manual_seed(c.sample_seed)
+        x = torch.randn((voxels.shape[0], c.horizon, c.action_dim), generator=generator)
+        scheduler = self.sample_scheduler
+        scheduler.set_timesteps(c.inference_steps)
+        for t in scheduler.timesteps:
+            eps = self.denoise(x, t.expand(x.shape[0]), tokens)
+            x = scheduler.step(eps, t, x, eta=0.0).prev_sample
+        return x, feature
+
+    @torch.no_grad()
+    def predict(self, voxels: torch.Tensor, proprio: torch.Tensor, text: torch.Tensor) -> PriorOutput:
+        x, feature = self.sample(voxels, proprio, text)
+        a = self.decode_actions(x)
+        chunk = torch.cat([a["position"], a["quat"], (a["gripper_open"] > 0)[..., None].float()], dim=-1)
+        return PriorOutput(
+            position=a["position"][:, 0], quat=a["quat"][:, 0],
+            gripper_open=(a["gripper_open"][:, 0] + 1) / 2, ignore_collisions=(a["ignore_collisions"][:, 0] + 1) / 2,
+            features=feature, chunk=chunk,
+        )

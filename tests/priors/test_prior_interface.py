@@ -1,0 +1,41 @@
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from bimanualshift.configs import prior_model_config
+from bimanualshift.priors.base import resolve_prior_path, shipped_priors
+from bimanualshift.training.samples import ArmSamples, action_chunks
+
+
+def test_shipped_priors_resolve_by_name_and_unknown_names_fail_clearly(tmp_path: Path) -> None:
+    for name in shipped_priors():
+        assert (resolve_prior_path(name) / "config.json").is_file()
+    assert resolve_prior_path(tmp_path) == tmp_path
+    with pytest.raises(FileNotFoundError, match="no shipped prior of that name"):
+        resolve_prior_path("no_such_prior")
+
+
+def test_named_sizes_reject_unknown_names() -> None:
+    assert prior_model_config("peract", "debug")["voxel_size"] == 16
+    with pytest.raises(ValueError, match="choose from"):
+        prior_model_config("peract", "huge")
+    with pytest.raises(ValueError, match="no named sizes"):
+        prior_model_config("rvt", "default")
+
+
+def test_action_chunks_follow_each_arm_and_repeat_the_last_keyframe() -> None:
+    n = 5  # episode 0: keyframes 0-2 of the right arm; episode 1: keyframes 0-1
+    samples = ArmSamples(
+        voxels=np.zeros((n, 1)), proprio=np.zeros((n, 9)), instructions=["x"] * n,
+        action_pos=np.arange(n * 3, dtype=np.float32).reshape(n, 3), action_quat=np.tile([0, 0, 0, 1.0], (n, 1)),
+        gripper_open=np.array([1, 0, 1, 1, 0]), ignore_collisions=np.zeros(n, np.int64),
+        episode=np.array([0, 0, 0, 1, 1]), keyframe=np.array([0, 1, 2, 0, 1]), arm=["right"] * n,
+        other_proprio=np.zeros((n, 8)),
+    )
+    chunks = action_chunks(samples, 3)
+    assert chunks["position"].shape == (n, 3, 3)
+    np.testing.assert_array_equal(chunks["gripper_open"], [[1, 0, 1], [0, 1, 1], [1, 1, 1], [1, 0, 0], [0, 0, 0]])
+    np.testing.assert_array_equal(chunks["position"][3, :, 0], [9, 12, 12])  # never crosses into episode 0
+    with pytest.raises(ValueError, match="horizon"):
+        action_chunks(samples, 0)

@@ -1,0 +1,58 @@
+import numpy as np
+import torch
+from scipy.spatial.transform import Rotation
+
+from bimanualshift.geometry.voxels import VoxelGrid
+from bimanualshift.training.augment import Se3Augmentation, transform_points, transform_quats, transform_voxels
+from bimanualshift.training.pretrain import augment_batch
+
+GRID = VoxelGrid((0.2, -0.45, -0.15, 0.9, 0.45, 0.35), 32)
+
+
+def blobs_at(points: np.ndarray) -> torch.Tensor:
+    """One 3x3x3 block of occupied, coloured voxels around each point."""
+    voxels = torch.zeros(len(points), 4, 32, 32, 32)
+    for b, p in enumerate(points):
+        i, j, k = GRID.point_to_index(p)
+        voxels[b, :, i - 1:i + 2, j - 1:j + 2, k - 1:k + 2] = torch.tensor([1.0, 0.2, 0.5, 0.9])[:, None, None, None]
+    return voxels
+
+
+def test_voxels_and_targets_move_together() -> None:
+    rng = np.random.default_rng(0)
+    points = GRID.index_to_point(rng.integers(8, 24, size=(12, 3)))
+    yaw, translation = Se3Augmentation(0.05, 30.0).sample(torch.Generator().manual_seed(0), 12)
+    assert yaw.abs().max() > np.radians(10) and translation[:, 2].abs().max() == 0  # horizontal motions only
+    moved = transform_voxels(blobs_at(points), GRID, yaw, translation)
+    targets = transform_points(torch.as_tensor(points, dtype=torch.float32), GRID, yaw, translation)
+    for b in range(12):
+        i, j, k = GRID.point_to_index(targets[b].numpy())
+        assert moved[b, 0, i, j, k] == 1.0  # the target still sits in the object it was on
+        centroid = GRID.index_to_point(moved[b, 0].nonzero().float().mean(0).numpy())
+        assert np.linalg.norm(centroid - targets[b].numpy()) < 0.75 * GRID.voxel_size.max()
+        torch.testing.assert_close(moved[b, 1:, i, j, k], torch.tensor([0.2, 0.5, 0.9]))  # colours kept exactly
+
+
+def test_orientations_turn_with_the_scene() -> None:
+    quats = Rotation.random(5, random_state=1).as_quat()
+    yaw = torch.linspace(-0.5, 0.5, 5)
+    expected = (Rotation.from_euler("z", yaw.numpy()[:, None]) * Rotation.from_quat(quats)).as_quat()
+    got = transform_quats(torch.as_tensor(quats, dtype=torch.float32), yaw).numpy()
+    assert Rotation.from_quat(got).approx_equal(Rotation.from_quat(expected), atol=1e-5).all()
+
+
+def test_batches_whose_target_would_leave_the_grid_stay_unchanged() -> None:
+    inside = GRID.index_to_point(np.array([16, 16, 16]))
+    edge = GRID.upper - 0.001
+    voxels = blobs_at(np.stack([inside, inside]))
+    proprio = torch.zeros(2, 9)
+    proprio[:, 6] = 1.0  # identity orientation
+    actions = {"position": torch.as_tensor(np.stack([inside, edge]), dtype=torch.float32)[:, None],
+               "quat": torch.tensor([[[0.0, 0.0, 0.0, 1.0]]] * 2)}
+    aug = Se3Augmentation(0.05, 20.0)
+    gen = torch.Generator().manual_seed(3)
+    new_voxels, new_proprio, new_actions = augment_batch(voxels, proprio, actions, GRID, aug, gen)
+    assert torch.equal(new_actions["position"][1], actions["position"][1])  # would have left the grid
+    assert torch.equal(new_voxels[1], voxels[1])
+    assert not torch.equal(new_actions["position"][0], actions["position"][0])
+    assert not torch.equal(new_proprio[0, :3], proprio[0, :3])  # the gripper's pose moves with the scene
