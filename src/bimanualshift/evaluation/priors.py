@@ -4,7 +4,6 @@ task with 95 % intervals, parameter count, inference time per call and training 
 from __future__ import annotations
 
 import json
-import multiprocessing as mp
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -12,9 +11,9 @@ from typing import Any
 
 import numpy as np
 import torch
-from tqdm import tqdm
 
 from bimanualshift.evaluation.stats import wilson_interval
+from bimanualshift.utils.workers import run_jobs
 
 # Rollouts of a prior stop at this multiple of the expert's keyframe count on the same seed.
 KEYFRAME_BUDGET = 2
@@ -64,18 +63,7 @@ def run_prior_episode(job: tuple[str, str, int]) -> PriorEpisode:
 
 def evaluate_priors(priors: list[str], tasks: list[str], seeds: list[int], workers: int = 1) -> list[PriorEpisode]:
     jobs = [(p, t, s) for p in priors for t in tasks for s in seeds]
-    results: list[PriorEpisode] = []
-    bar = tqdm(total=len(jobs), desc="prior episodes", unit="ep")
-    if workers <= 1:
-        for job in jobs:
-            results.append(run_prior_episode(job))
-            bar.update()
-    else:
-        with mp.get_context("spawn").Pool(workers) as pool:
-            for episode in pool.imap_unordered(run_prior_episode, jobs, chunksize=4):
-                results.append(episode)
-                bar.update()
-    bar.close()
+    results = run_jobs(run_prior_episode, jobs, workers, desc="prior episodes", chunksize=4)
     return sorted(results, key=lambda e: (e.prior, e.task, e.seed))
 
 

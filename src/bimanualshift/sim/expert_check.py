@@ -2,13 +2,11 @@
 
 from __future__ import annotations
 
-import multiprocessing as mp
 import time
 from dataclasses import dataclass
 
-from tqdm import tqdm
-
 from bimanualshift.sim.env import ManipulationEnv
+from bimanualshift.utils.workers import run_jobs
 
 _ENVS: dict[str, ManipulationEnv] = {}
 
@@ -40,16 +38,5 @@ def _run_job(job: tuple[str, int]) -> ExpertEpisode:
 
 def check_experts(tasks: list[str], seeds: list[int], workers: int = 1) -> list[ExpertEpisode]:
     jobs = [(task, seed) for task in tasks for seed in seeds]
-    bar = tqdm(total=len(jobs), desc="expert episodes", unit="ep")
-    results: list[ExpertEpisode] = []
-    if workers <= 1:
-        for job in jobs:
-            results.append(_run_job(job))
-            bar.update()
-    else:
-        with mp.get_context("spawn").Pool(workers) as pool:
-            for episode in pool.imap_unordered(_run_job, jobs, chunksize=2):
-                results.append(episode)
-                bar.update()
-    bar.close()
+    results = run_jobs(_run_job, jobs, workers, desc="expert episodes")
     return sorted(results, key=lambda e: (e.task, e.seed))

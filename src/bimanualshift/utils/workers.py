@@ -1,0 +1,30 @@
+"""Run independent jobs in this process or in ``spawn`` worker processes, with a progress bar."""
+
+from __future__ import annotations
+
+import multiprocessing as mp
+from collections.abc import Callable, Iterable
+from typing import TypeVar
+
+from tqdm import tqdm
+
+J = TypeVar("J")
+R = TypeVar("R")
+
+
+def run_jobs(fn: Callable[[J], R], jobs: Iterable[J], workers: int = 1, desc: str = "jobs", chunksize: int = 2
+             ) -> list[R]:
+    """Results of ``fn`` over ``jobs`` in completion order (``fn`` must be importable: workers are spawned)."""
+    jobs = list(jobs)
+    results: list[R] = []
+    with tqdm(total=len(jobs), desc=desc, unit="ep") as bar:
+        if workers <= 1:
+            for job in jobs:
+                results.append(fn(job))
+                bar.update()
+        else:
+            with mp.get_context("spawn").Pool(workers) as pool:
+                for result in pool.imap_unordered(fn, jobs, chunksize=chunksize):
+                    results.append(result)
+                    bar.update()
+    return results
