@@ -282,6 +282,13 @@ def cmd_train(args: argparse.Namespace) -> None:
     print(f"best BimanualShift checkpoint: {best}")
 
 
+def cmd_refine(args: argparse.Namespace) -> None:
+    from bimanualshift.training.refine import RefineConfig, refine
+
+    best = refine(_config_from_args(RefineConfig, args))
+    print(f"refined BimanualShift checkpoint: {best}")
+
+
 def cmd_eval(args: argparse.Namespace) -> None:
     from bimanualshift.data.seeds import split_seeds
     from bimanualshift.encoders.text import default_text_encoder
@@ -332,6 +339,7 @@ def cmd_report(args: argparse.Namespace) -> None:
 def build_parser() -> argparse.ArgumentParser:
     from bimanualshift.demo import DemoConfig
     from bimanualshift.training.pretrain import PretrainConfig
+    from bimanualshift.training.refine import RefineConfig
     from bimanualshift.training.residual import TrainConfig
 
     parser = argparse.ArgumentParser(prog="bimanualshift", description=DESCRIPTION,
@@ -412,6 +420,9 @@ def build_parser() -> argparse.ArgumentParser:
                         cmd_pretrain)
     _add_config_command(sub, "train", "train the residual branch on bimanual demos (prior frozen)", TrainConfig,
                         cmd_train)
+    _add_config_command(sub, "refine", "retrieval-conditioned refinement: roll out on training scenes, correct "
+                                       "failures with the expert, fine-tune the residual, grow the memory bank",
+                        RefineConfig, cmd_refine)
 
     p = sub.add_parser("eval", help="evaluate a method on held-out seeds")
     p.add_argument("--method", default="bimanualshift",

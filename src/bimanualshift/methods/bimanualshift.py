@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import json
-from dataclasses import asdict
+from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
@@ -16,7 +16,7 @@ from bimanualshift.encoders.text import TextEncoder
 from bimanualshift.geometry.frames import compose_rotation
 from bimanualshift.memory.bank import MemoryBank, Retrieval
 from bimanualshift.memory.reference import episode_key, reference_vector
-from bimanualshift.methods.stages import FrozenPriorStage, world_action
+from bimanualshift.methods.stages import ArmStep, FrozenPriorStage, world_action
 from bimanualshift.priors.base import UnimanualPrior
 from bimanualshift.residual.manager import ResidualConfig, ResidualPolicy, manager_inputs
 from bimanualshift.residual.skills import SkillBasis
@@ -37,24 +37,26 @@ class BimanualShift:
         self.memory = memory.freeze() if memory is not None else None
         self.retrieval: Retrieval | None = None
         self._retrieved = False
+        self._key: np.ndarray | None = None
 
     def reset(self) -> None:
-        self.retrieval, self._retrieved = None, False
+        self.retrieval, self._retrieved, self._key = None, False, None
 
     def _retrieve(self, steps: dict, text: torch.Tensor, arms: list[str]) -> None:
         """Once per episode, on its first observation: the most similar stored execution, if confident."""
         if self.memory is not None and not self._retrieved:
-            key = episode_key(text[0].numpy(), [steps[a].prior.features[0].numpy() for a in arms])
-            self.retrieval = self.memory.search(key)
+            self._key = episode_key(text[0].numpy(), [steps[a].prior.features[0].numpy() for a in arms])
+            self.retrieval = self.memory.search(self._key)
             self._retrieved = True
 
     @torch.no_grad()
-    def act(self, obs: KeyframeObservation) -> np.ndarray:
+    def decide(self, obs: KeyframeObservation) -> list[ArmDecision]:
+        """Each arm's Manager input, frozen-prior action and final action (Eq. 4) at this keyframe."""
         steps = self.stage.run(obs)
         text = self.stage.text(obs.instruction)
         arms = obs.scene.arm_names
         self._retrieve(steps, text, arms)
-        rows = []
+        decisions = []
         for i, arm in enumerate(arms):
             s = steps[arm]
             reference = None
@@ -68,9 +70,25 @@ class BimanualShift:
             out = self.residual(inputs)
             position = s.prior.position[0].numpy() + out["translation"][0].numpy()
             quat = compose_rotation(s.prior.quat[0].numpy(), out["rotation"][0].numpy())
-            rows.append(world_action(s.frame, position, quat, float(s.prior.gripper_open[0]),
-                                     float(s.prior.ignore_collisions[0])))
-        return np.stack(rows)
+            action = world_action(s.frame, position, quat, float(s.prior.gripper_open[0]),
+                                  float(s.prior.ignore_collisions[0]))
+            decisions.append(ArmDecision(arm, s, inputs[0], action))
+        return decisions
+
+    def act(self, obs: KeyframeObservation) -> np.ndarray:
+        return np.stack([d.action for d in self.decide(obs)])
+
+    def first_key(self) -> np.ndarray | None:
+        """The memory key of the current episode (set by its first ``decide``), None without retrieval."""
+        return self._key
+
+
+@dataclass
+class ArmDecision:
+    arm: str
+    step: ArmStep  # the arm's frame, proprioception and the frozen prior's output
+    inputs: torch.Tensor  # the Manager's input row
+    action: np.ndarray  # (9,) the world-frame action sent to the env
 
 
 def save_residual(directory: str | Path, residual: ResidualPolicy, extra: dict[str, Any],

@@ -64,11 +64,13 @@ class ResidualData:
     inputs: torch.Tensor  # (N, manager input width)
     translation: torch.Tensor  # (N, 3) target residual: expert - prior, arm frame
     rotation: torch.Tensor  # (N, 3) axis-angle r with exp(r) * R_prior = R_expert
+    memory: MemoryBank | None = None  # the bank the references came from (built here with ``build_memory``)
 
 
 def residual_data(paths: list[Path], stage: FrozenPriorStage, text_encoder: TextEncoder, desc: str,
                   augment_copies: int = 0, augment_max_voxels: int = 0, seed: int = 0,
-                  memory: MemoryBank | None = None, own_memory: bool = False) -> ResidualData:
+                  memory: MemoryBank | None = None, own_memory: bool = False, build_memory: float | None = None,
+                  task: str = "") -> ResidualData:
     """Manager inputs and residual targets for every (keyframe, arm), from the frozen prior's outputs.
 
     With ``augment_copies`` > 0, each sample is also seen through that many whole-voxel translations of
@@ -76,7 +78,8 @@ def residual_data(paths: list[Path], stage: FrozenPriorStage, text_encoder: Text
     each shifted copy: augmentation the prior's cache allows, since it is computed once before training.
 
     With a ``memory`` bank, each sample also gets the retrieved temporal reference of its episode; with
-    ``own_memory`` the bank holds these very episodes (in order) and an episode never retrieves itself.
+    ``own_memory`` the bank's first entries are these very episodes (in order) and an episode never retrieves
+    itself. ``build_memory`` (a confidence threshold) builds that bank from these episodes in the same pass.
     """
     samples = build_arm_samples(paths, stage.builder, stage.max_keyframes, desc=desc)
     grid = stage.builder.grid
@@ -107,6 +110,8 @@ def residual_data(paths: list[Path], stage: FrozenPriorStage, text_encoder: Text
         features_t, base_t = torch.cat(features), torch.cat(base)
         if copy == 0:
             first_features = features_t
+            if build_memory is not None:
+                memory, own_memory = episode_memory(samples, first_features, text, build_memory, task), True
         reference = None
         if memory is not None:
             reference = retrieved_references(samples, first_features, text, base_t, memory, own_memory)
@@ -115,7 +120,8 @@ def residual_data(paths: list[Path], stage: FrozenPriorStage, text_encoder: Text
         rotation = torch.as_tensor(np.stack([rotation_difference(t, b) for t, b in
                                              zip(samples.action_quat, base_t[:, 3:7].numpy())]), dtype=torch.float32)
         parts.append(ResidualData(inputs, translation, rotation))
-    return ResidualData(*(torch.cat([getattr(p, f) for p in parts]) for f in ("inputs", "translation", "rotation")))
+    return ResidualData(*(torch.cat([getattr(p, f) for p in parts]) for f in ("inputs", "translation", "rotation")),
+                        memory=memory)
 
 
 def episode_memory(samples: ArmSamples, features: torch.Tensor, text: torch.Tensor, threshold: float,
@@ -181,18 +187,6 @@ def translation_report(residual: ResidualPolicy, data: ResidualData) -> dict[str
     return report
 
 
-def demo_memory(paths: list[Path], stage: FrozenPriorStage, text_encoder: TextEncoder, threshold: float,
-                task: str = "") -> MemoryBank:
-    """The memory bank of the training demos (verified successes: collection keeps successful episodes only)."""
-    samples = build_arm_samples(paths, stage.builder, stage.max_keyframes, desc="memory keys")
-    text = torch.as_tensor(text_encoder.encode(samples.instructions))
-    with torch.no_grad():
-        features = torch.cat([stage.prior.predict(torch.as_tensor(samples.voxels[s:s + 32]).float(),
-                                                  torch.as_tensor(samples.proprio[s:s + 32]), text[s:s + 32]).features
-                              for s in range(0, len(samples), 32)])
-    return episode_memory(samples, features, text, threshold, task)
-
-
 def segmenter_options(grounding_dino: str, sam: str) -> dict[str, str]:
     """GroundedSamConfig overrides for the weights' locations; empty strings keep the defaults."""
     return {k: v for k, v in (("detector", grounding_dino), ("sam", sam)) if v}
@@ -211,9 +205,10 @@ def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Pat
     if not paths:
         raise FileNotFoundError(f"no bimanual demos for {cfg.task} under {cfg.data}; run "
                                 f"`bimanualshift collect --task {cfg.task} --out {cfg.data}` first")
-    memory = demo_memory(paths, stage, text_encoder, cfg.retrieval_threshold, cfg.task) if cfg.retrieval else None
     train = residual_data(paths, stage, text_encoder, "prior outputs (train)", cfg.augment_copies,
-                          cfg.augment_max_voxels, cfg.seed, memory, own_memory=True)
+                          cfg.augment_max_voxels, cfg.seed,
+                          build_memory=cfg.retrieval_threshold if cfg.retrieval else None, task=cfg.task)
+    memory = train.memory
     val_paths = list_episodes(cfg.validation_data, cfg.task)
     val = residual_data(val_paths, stage, text_encoder, "prior outputs (val)", memory=memory) if val_paths else train
     torch.manual_seed(cfg.seed)  # here, so how the prior was obtained cannot change the residual's init
@@ -224,7 +219,7 @@ def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Pat
     checkpoint_meta = {"prior": cfg.prior, "use_projection": cfg.use_projection, "segmenter": cfg.segmenter,
                        "retrieval": cfg.retrieval,
                        "segmenter_options": segmenter_options(cfg.grounding_dino, cfg.sam),
-                       "task": cfg.task, "demos": len(paths),
+                       "task": cfg.task, "demos": len(paths), "train_config": asdict(cfg),
                        "text_encoder": getattr(text_encoder, "name", "custom")}
 
     def step_fn(step: int, gen: torch.Generator) -> dict[str, torch.Tensor]:

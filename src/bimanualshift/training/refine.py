@@ -1,0 +1,257 @@
+"""Retrieval-conditioned residual refinement (paper §III-C, Eq. 10-11, 13): `bimanualshift refine`.
+
+1. Roll the trained policy out on training scenes (train-split seeds, never validation or test).
+2. A success is a verified execution: it goes into the memory bank M.
+3. A failure is replayed from the same scene with the scripted expert as the human corrector: at every
+   keyframe where an arm's action strays from the expert's (beyond a position / angle tolerance, or the
+   gripper disagrees) the expert's action for that arm is executed instead, and the step becomes a
+   correction sample with target r* = a_corr - a_base (Eq. 10), a_base being the frozen prior's action.
+   A corrected run that succeeds is inserted into M as well.
+4. The residual branch (Manager, Z, G) is fine-tuned on L_BC over the demos + lambda * L_corr over the
+   correction samples (Eq. 11, 13); the prior and the projection stay frozen.
+
+Rollouts are checkpointed per scene (a killed run keeps the scenes it finished) and the fine-tuning uses
+the shared resumable loop.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+from safetensors import safe_open
+from safetensors.torch import load_file, save_file
+from tqdm import tqdm
+
+from bimanualshift.data.episode import list_episodes
+from bimanualshift.data.frames import KeyframeObservation, scene_of_env
+from bimanualshift.data.seeds import split_seeds
+from bimanualshift.encoders.text import TextEncoder, default_text_encoder
+from bimanualshift.geometry.frames import rotation_difference
+from bimanualshift.memory.bank import MemoryBank, MemoryEntry
+from bimanualshift.methods.bimanualshift import MEMORY_FILE, BimanualShift, load_bimanualshift, save_residual
+from bimanualshift.sim.env import ManipulationEnv
+from bimanualshift.training.loop import run_training
+from bimanualshift.training.optim import make_lamb
+from bimanualshift.training.residual import ResidualData, bc_loss, residual_data
+from bimanualshift.utils.io import atomic_write_json, atomic_writer
+
+
+@dataclass
+class RefineConfig:
+    checkpoint: str = "runs/bimanualshift/best"  # a trained BimanualShift (from `bimanualshift train`)
+    out: str = "runs/refine"
+    episodes: int = 20  # training scenes rolled out
+    start: int = 0  # first train-split seed offset (0: the demos' own scenes)
+    max_keyframes: int = 0  # episode length limit of the policy's own rollouts (0: the task's)
+    tolerance_m: float = 0.03  # an arm strays when its position is this far from the corrector's ...
+    tolerance_deg: float = 20.0  # ... or its orientation this far, or its gripper state differs
+    lambda_corr: float = 1.0  # weight of L_corr in L_total (Eq. 13)
+    steps: int = 500
+    batch_size: int = 4
+    lr: float = 5e-4
+    beta: float = 1.0
+    checkpoint_every: int = 100
+    seed: int = 0
+
+
+@dataclass
+class Correction:
+    inputs: list[torch.Tensor]
+    translation: list[np.ndarray]
+    rotation: list[np.ndarray]
+
+
+def arm_frame_action(decision_frame: Any, row: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A world-frame action row's position and quaternion in the arm's frame."""
+    return decision_frame.pose_to_arm(row[:3], row[3:7])
+
+
+def strays(policy_row: np.ndarray, expert_row: np.ndarray, tolerance_m: float, tolerance_deg: float) -> bool:
+    """Whether one arm's world-frame action differs from the corrector's beyond the tolerances."""
+    position = np.linalg.norm(policy_row[:3] - expert_row[:3]) > tolerance_m
+    angle = np.degrees(np.linalg.norm(rotation_difference(expert_row[3:7], policy_row[3:7]))) > tolerance_deg
+    gripper = (policy_row[7] > 0.5) != (expert_row[7] > 0.5)
+    return bool(position or angle or gripper)
+
+
+def _trajectory_row(decisions: list, executed: np.ndarray) -> np.ndarray:
+    """(A, 8) the executed actions in each arm's frame: position, quaternion, gripper (the bank's format)."""
+    rows = []
+    for d, row in zip(decisions, executed):
+        pos, quat = arm_frame_action(d.step.frame, row)
+        rows.append(np.r_[pos, quat, row[7]])
+    return np.asarray(rows, np.float32)
+
+
+def run_policy(env: ManipulationEnv, policy: BimanualShift, seed: int, max_keyframes: int,
+               corrector: list[np.ndarray] | None = None, tolerance_m: float = 0.03, tolerance_deg: float = 20.0,
+               ) -> tuple[bool, np.ndarray, np.ndarray | None, Correction]:
+    """One episode; with ``corrector`` (the expert's world-frame actions per keyframe) straying arms are
+    overridden and recorded. Returns (success, executed arm-frame trajectory, memory key, corrections)."""
+    obs, _ = env.reset(seed=seed)
+    scene = scene_of_env(env)
+    policy.reset()
+    trajectory, correction, success = [], Correction([], [], []), False
+    steps = len(corrector) if corrector is not None else max_keyframes
+    for k in range(steps):
+        decisions = policy.decide(KeyframeObservation.from_env(obs, scene))
+        executed = np.stack([d.action for d in decisions])
+        if corrector is not None:
+            for i, d in enumerate(decisions):
+                expert = corrector[k][i]
+                if not strays(d.action, expert, tolerance_m, tolerance_deg):
+                    continue
+                executed[i] = expert
+                pos, quat = arm_frame_action(d.step.frame, expert)
+                base = d.step.prior  # Eq. 10: the target is relative to the frozen prior's action
+                correction.inputs.append(d.inputs)
+                correction.translation.append(pos - base.position[0].numpy())
+                correction.rotation.append(rotation_difference(quat, base.quat[0].numpy()))
+        trajectory.append(_trajectory_row(decisions, executed))
+        obs, _, success, truncated, _ = env.step(executed)
+        if success or truncated:
+            break
+    success = bool(success or env.success())
+    return success, np.stack(trajectory), policy.first_key(), correction
+
+
+def expert_actions(env: ManipulationEnv, seed: int) -> list[np.ndarray]:
+    """The scripted expert's world-frame action rows for a scene, planned from its initial state."""
+    env.reset(seed=seed)
+    return [env.action_from_keyframe(k) for k in env.expert_keyframes()]
+
+
+def _save_scene(path: Path, record: dict, correction: Correction, trajectory: np.ndarray | None,
+                key: np.ndarray | None) -> None:
+    tensors = {"inputs": torch.stack(correction.inputs) if correction.inputs else torch.zeros(0),
+               "translation": torch.as_tensor(np.asarray(correction.translation, np.float32)),
+               "rotation": torch.as_tensor(np.asarray(correction.rotation, np.float32))}
+    if trajectory is not None and key is not None:
+        tensors["trajectory"] = torch.as_tensor(trajectory)
+        tensors["key"] = torch.as_tensor(np.asarray(key, np.float32))
+    with atomic_writer(path) as tmp:
+        save_file({k: v.contiguous() for k, v in tensors.items()}, str(tmp), metadata={"record": json.dumps(record)})
+
+
+def collect_refinement(cfg: RefineConfig, policy: BimanualShift, task: str) -> list[Path]:
+    """Roll out and correct every scene not yet done; one safetensors file per scene under ``out/scenes``."""
+    scenes = Path(cfg.out) / "scenes"
+    scenes.mkdir(parents=True, exist_ok=True)
+    env = ManipulationEnv(task)
+    paths = []
+    bar = tqdm(split_seeds("train", cfg.episodes, cfg.start), desc="refinement rollouts", unit="scene")
+    for seed in bar:
+        path = scenes / f"seed_{seed:06d}.safetensors"
+        paths.append(path)
+        if path.is_file():
+            continue
+        limit = cfg.max_keyframes or env.task.max_keyframes
+        success, trajectory, key, correction = run_policy(env, policy, seed, limit)
+        record: dict[str, Any] = {"seed": seed, "instruction": env.task.instruction(), "policy_success": success}
+        if not success:
+            plan = expert_actions(env, seed)
+            success, trajectory, key, correction = run_policy(env, policy, seed, len(plan), plan,
+                                                              cfg.tolerance_m, cfg.tolerance_deg)
+            record["corrected_success"] = success
+        record["corrections"] = len(correction.inputs)
+        _save_scene(path, record, correction, trajectory if success else None, key)
+    env.close()
+    return paths
+
+
+def load_scenes(paths: list[Path]) -> tuple[list[dict], ResidualData | None, list[tuple[dict, np.ndarray, np.ndarray]]]:
+    """Per-scene records, the pooled correction samples and the successful executions (record, key, trajectory)."""
+    records, parts, successes = [], [], []
+    for path in paths:
+        with safe_open(str(path), framework="pt") as f:
+            record = json.loads(f.metadata()["record"])
+            names = set(f.keys())
+        tensors = load_file(str(path))
+        records.append(record)
+        if record["corrections"]:
+            parts.append((tensors["inputs"], tensors["translation"], tensors["rotation"]))
+        if "trajectory" in names:
+            successes.append((record, tensors["key"].numpy(), tensors["trajectory"].numpy()))
+    data = None
+    if parts:
+        data = ResidualData(*(torch.cat([p[i] for p in parts]) for i in range(3)))
+    return records, data, successes
+
+
+def refine(cfg: RefineConfig, text_encoder: TextEncoder | None = None) -> Path:
+    started = time.time()
+    out = Path(cfg.out)
+    out.mkdir(parents=True, exist_ok=True)
+    atomic_write_json(out / "refine_config.json", asdict(cfg))
+    checkpoint = Path(cfg.checkpoint)
+    if not (checkpoint / "config.json").is_file():
+        raise FileNotFoundError(f"no BimanualShift checkpoint at {checkpoint}; train one with `bimanualshift train`")
+    meta = json.loads((checkpoint / "config.json").read_text())
+    train_cfg = meta.get("train_config")
+    if not train_cfg:
+        raise ValueError(f"{checkpoint}/config.json has no train_config; re-train it with this version of "
+                         "`bimanualshift train` so refinement can find its demos")
+    text_encoder = text_encoder or default_text_encoder()
+    policy = load_bimanualshift(checkpoint, text_encoder)
+    task = meta["task"]
+
+    # 1-3: rollouts on training scenes, corrections, successes into the (unfrozen) bank.
+    records, corrections, successes = load_scenes(collect_refinement(cfg, policy, task))
+    memory = MemoryBank.load(checkpoint / MEMORY_FILE) if policy.memory is not None else None
+    if memory is not None:
+        for record, key, trajectory in successes:
+            memory.add(key, trajectory, MemoryEntry(task, record["instruction"], "refinement", int(record["seed"])))
+
+    # 4: fine-tune the residual branch on L_BC (demos) + lambda * L_corr (corrections).
+    stage, residual = policy.stage, policy.residual
+    paths = list_episodes(train_cfg["data"], task)[: train_cfg["demos"]]
+    if not paths:
+        raise FileNotFoundError(f"the demos the checkpoint was trained on are gone: none for {task} under "
+                                f"{train_cfg['data']}")
+    train = residual_data(paths, stage, text_encoder, "prior outputs (demos)", memory=memory, own_memory=True)
+    val_paths = list_episodes(train_cfg["validation_data"], task)
+    val = residual_data(val_paths, stage, text_encoder, "prior outputs (val)", memory=memory) if val_paths else train
+    optimizer = make_lamb(residual.parameters(), lr=cfg.lr)
+    lambda_corr = cfg.lambda_corr if corrections is not None else 0.0
+
+    def step_fn(step: int, gen: torch.Generator) -> dict[str, torch.Tensor]:
+        index = torch.randint(len(train.inputs), (cfg.batch_size,), generator=gen)
+        losses = bc_loss(residual(train.inputs[index]), train.translation[index], train.rotation[index], cfg.beta)
+        if corrections is None:
+            return losses
+        index = torch.randint(len(corrections.inputs), (cfg.batch_size,), generator=gen)
+        out = residual(corrections.inputs[index])
+        # Eq. 11: || G(v) - r* ||^2 over both components of the residual.
+        corr = (((out["translation"] - corrections.translation[index]) ** 2).sum(-1)
+                + cfg.beta * ((out["rotation"] - corrections.rotation[index]) ** 2).sum(-1)).mean()
+        return {**losses, "correction": corr, "total": losses["total"] + lambda_corr * corr}
+
+    def validate(step: int) -> float:
+        with torch.no_grad():
+            return float(bc_loss(residual(val.inputs), val.translation, val.rotation, cfg.beta)["total"])
+
+    refine_meta = {**{k: v for k, v in meta.items() if k not in ("type", "residual")},
+                   "refined_from": str(checkpoint), "refine_config": asdict(cfg)}
+
+    def on_best(step: int, value: float, elapsed_s: float) -> None:
+        save_residual(out / "best", residual, {**refine_meta, "refined_steps": step, "validation_loss": value},
+                      memory)
+
+    result = run_training(out, residual, optimizer, cfg.steps, step_fn, cfg.seed, cfg.checkpoint_every,
+                          validate, on_best, desc="refine residual")
+    summary = {
+        **result, "wall_time_s": round(time.time() - started, 1), "scenes": len(records),
+        "policy_successes": sum(r["policy_success"] for r in records),
+        "corrected_successes": sum(bool(r.get("corrected_success")) for r in records),
+        "correction_samples": 0 if corrections is None else len(corrections.inputs),
+        "memory_entries": None if memory is None else len(memory),
+        "inserted_into_memory": len(successes) if memory is not None else 0,
+    }
+    atomic_write_json(out / "summary.json", summary)
+    return out / "best"

@@ -1,0 +1,102 @@
+"""Refinement: stray detection, Eq. 10 targets from the expert corrector, and the full `refine` run
+(corrections, successes into the memory bank, L_corr fine-tuning, resume, frozen prior)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+import torch
+from safetensors.torch import load_file
+
+from bimanualshift.data.frames import KeyframeObservation, scene_of_env
+from bimanualshift.encoders.text import default_text_encoder
+from bimanualshift.geometry.frames import compose_rotation
+from bimanualshift.memory.bank import MemoryBank
+from bimanualshift.methods.bimanualshift import MEMORY_FILE, load_bimanualshift
+from bimanualshift.sim.env import ManipulationEnv
+from bimanualshift.training.checkpoint import latest_checkpoint
+from bimanualshift.training.refine import RefineConfig, expert_actions, refine, run_policy, strays
+from bimanualshift.training.residual import TrainConfig, train_residual
+
+
+def _row(pos: list[float], yaw_deg: float = 0.0, gripper: float = 1.0) -> np.ndarray:
+    half = np.radians(yaw_deg) / 2
+    return np.r_[pos, [0.0, 0.0, np.sin(half), np.cos(half)], gripper, 0.0]
+
+
+def test_strays_on_position_angle_and_gripper() -> None:
+    expert = _row([0.5, 0.0, 1.0])
+    assert not strays(_row([0.51, 0.0, 1.0], 5.0), expert, 0.03, 20.0)
+    assert strays(_row([0.54, 0.0, 1.0]), expert, 0.03, 20.0)
+    assert strays(_row([0.5, 0.0, 1.0], 30.0), expert, 0.03, 20.0)
+    assert strays(_row([0.5, 0.0, 1.0], gripper=0.0), expert, 0.03, 20.0)
+
+
+@pytest.fixture(scope="module")
+def trained(demo_root: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    from tests.training.test_train_resume import pretrain, pretrain_cfg
+
+    root = tmp_path_factory.mktemp("refine")
+    prior = pretrain(pretrain_cfg(demo_root, root / "prior", steps=2))
+    return train_residual(TrainConfig(prior=str(prior), data=str(demo_root / "bimanual"),
+                                      validation_data=str(demo_root / "bimanual"), out=str(root / "residual"),
+                                      steps=2, checkpoint_every=2, demos=2, retrieval=True,
+                                      retrieval_threshold=-1.0))
+
+
+def test_corrector_targets_are_expert_minus_frozen_prior(trained: Path) -> None:
+    policy = load_bimanualshift(trained, default_text_encoder())
+    env = ManipulationEnv("push_two_buttons", image_size=64)
+    try:
+        plan = expert_actions(env, 3)[:2]
+        # Tolerance 0: every arm strays at every step, so the expert drives the whole episode.
+        _, trajectory, key, correction = run_policy(env, policy, 3, len(plan), plan, 0.0, 0.0)
+        obs, _ = env.reset(seed=3)
+        policy.reset()
+        first = policy.decide(KeyframeObservation.from_env(obs, scene_of_env(env)))
+    finally:
+        env.close()
+    assert len(correction.inputs) == 2 * len(plan) and key is not None
+    for i, decision in enumerate(first):  # Eq. 10 at the first keyframe, per arm
+        pos, quat = decision.step.frame.pose_to_arm(plan[0][i][:3], plan[0][i][3:7])
+        base = decision.step.prior
+        np.testing.assert_allclose(base.position[0].numpy() + correction.translation[i], pos, atol=1e-5)
+        recomposed = compose_rotation(base.quat[0].numpy(), correction.rotation[i])
+        assert abs(abs(float(np.dot(recomposed, quat))) - 1.0) < 1e-5
+        torch.testing.assert_close(correction.inputs[i], decision.inputs)
+        np.testing.assert_allclose(trajectory[0, i, :3], pos, atol=1e-5)  # the expert's action was executed
+
+
+def test_refine_corrects_grows_memory_resumes_and_keeps_prior_frozen(trained: Path, tmp_path: Path) -> None:
+    meta = json.loads((trained / "config.json").read_text())
+    prior_before = load_file(str(Path(meta["prior"]) / "model.safetensors"))
+    bank_before = MemoryBank.load(trained / MEMORY_FILE)
+
+    def cfg(steps: int) -> RefineConfig:
+        return RefineConfig(checkpoint=str(trained), out=str(tmp_path), episodes=2, start=5, max_keyframes=2,
+                            steps=steps, checkpoint_every=2)
+
+    refine(cfg(2))
+    scenes = sorted((tmp_path / "scenes").glob("*.safetensors"))
+    assert [p.name for p in scenes] == ["seed_000005.safetensors", "seed_000006.safetensors"]
+    stamps = [p.stat().st_mtime_ns for p in scenes]
+    best = refine(cfg(4))  # resumes: scenes are not rolled out again, training continues from step 2
+    assert [p.stat().st_mtime_ns for p in scenes] == stamps
+    assert latest_checkpoint(tmp_path).name == "step_0000004"
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["scenes"] == 2
+    # A 2-step residual cannot solve the task in 2 keyframes; the expert corrector must have stepped in.
+    assert summary["policy_successes"] == 0 and summary["correction_samples"] > 0
+    assert "correction" in summary["history"][-1]
+    bank = MemoryBank.load(best / MEMORY_FILE)
+    assert len(bank) == len(bank_before) + summary["inserted_into_memory"]
+    assert summary["inserted_into_memory"] == summary["corrected_successes"]
+    assert all(e.source == "refinement" for e in bank.entries[len(bank_before):])
+    prior_after = load_file(str(Path(meta["prior"]) / "model.safetensors"))
+    for key, value in prior_before.items():
+        assert torch.equal(value, prior_after[key]), key
+    assert json.loads((best / "config.json").read_text())["refined_from"] == str(trained)
+    load_bimanualshift(best, default_text_encoder())  # the refined checkpoint loads like a trained one
