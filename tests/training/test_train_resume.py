@@ -145,3 +145,22 @@ def test_without_residual_ablation_keeps_the_projection(tiny_prior: Path) -> Non
     assert FrozenPriorPerArm.from_pretrained(str(tiny_prior), encoder).stage.builder.projection is None
     ablation = FrozenPriorPerArm.from_pretrained(str(tiny_prior), encoder, "no_residual", use_projection=True)
     assert ablation.stage.builder.projection is not None and ablation.name == "no_residual"
+
+
+def test_residual_with_a_clip_text_encoder_trains_and_reloads(demo_root: Path, tiny_prior: Path, tmp_path: Path
+                                                              ) -> None:
+    from tests.encoders.test_text import tiny_clip
+
+    spec = f"clip:{tiny_clip(tmp_path / 'clip')}"
+    best = train_residual(TrainConfig(prior=str(tiny_prior), data=str(demo_root / "bimanual"),
+                                      validation_data=str(demo_root / "bimanual"), out=str(tmp_path / "run"),
+                                      steps=2, checkpoint_every=2, demos=2, text_encoder=spec))
+    policy = load_bimanualshift(best)
+    # The skill basis, the Manager's instruction input and the memory keys use CLIP; the prior keeps MiniLM.
+    assert policy.text_encoder.dim == 16 and policy.residual.config.text_dim == 16
+    assert policy.residual.basis.z.shape[1] == 16 and policy.stage.text_encoder.dim == 384
+    env = ManipulationEnv("push_two_buttons", image_size=64)
+    try:
+        assert rollout(env, policy, seed=200_000, max_keyframes=1).keyframes == 1
+    finally:
+        env.close()

@@ -12,7 +12,7 @@ import torch
 from safetensors.torch import load_file, save_file
 
 from bimanualshift.data.frames import KeyframeObservation
-from bimanualshift.encoders.text import TextEncoder
+from bimanualshift.encoders.text import DEFAULT_SPEC, TextEncoder, default_text_encoder, make_text_encoder
 from bimanualshift.geometry.frames import compose_rotation
 from bimanualshift.memory.bank import MemoryBank, Retrieval
 from bimanualshift.memory.reference import episode_key, reference_vector
@@ -28,11 +28,16 @@ MEMORY_FILE = "memory.safetensors"  # the frozen memory bank, beside the residua
 class BimanualShift:
     name = "bimanualshift"
 
-    def __init__(self, stage: FrozenPriorStage, residual: ResidualPolicy, memory: MemoryBank | None = None) -> None:
+    def __init__(self, stage: FrozenPriorStage, residual: ResidualPolicy, memory: MemoryBank | None = None,
+                 text_encoder: TextEncoder | None = None) -> None:
         if (memory is not None) != (residual.config.reference_dim > 0):
             raise ValueError("a residual trained with retrieval needs its memory bank, and one trained without "
                              "retrieval takes none")
         self.stage = stage
+        self.text_encoder = text_encoder or stage.text_encoder  # the residual's; the prior keeps its own
+        if self.text_encoder.dim != residual.config.text_dim:
+            raise ValueError(f"the residual reads {residual.config.text_dim}-wide instruction embeddings, the text "
+                             f"encoder gives {self.text_encoder.dim}: load it with the encoder it was trained with")
         self.residual = residual.eval()
         self.memory = memory.freeze() if memory is not None else None
         self.retrieval: Retrieval | None = None
@@ -53,7 +58,7 @@ class BimanualShift:
     def decide(self, obs: KeyframeObservation) -> list[ArmDecision]:
         """Each arm's Manager input, frozen-prior action and final action (Eq. 4) at this keyframe."""
         steps = self.stage.run(obs)
-        text = self.stage.text(obs.instruction)
+        text = torch.as_tensor(self.text_encoder.encode([obs.instruction]))
         arms = obs.scene.arm_names
         self._retrieve(steps, text, arms)
         decisions = []
@@ -104,15 +109,24 @@ def save_residual(directory: str | Path, residual: ResidualPolicy, extra: dict[s
     return directory
 
 
-def load_bimanualshift(directory: str | Path, text_encoder: TextEncoder) -> BimanualShift:
+def load_bimanualshift(directory: str | Path, text_encoder: TextEncoder | None = None) -> BimanualShift:
+    """A trained (or refined) BimanualShift; ``text_encoder`` is the prior's (default: the bundled MiniLM it is
+    pretrained with), the residual's comes from the checkpoint's ``text_encoder`` spec."""
     directory = Path(directory)
+    if not (directory / "config.json").is_file():
+        raise FileNotFoundError(f"no BimanualShift checkpoint at {directory} (config.json missing); train one with "
+                                "`bimanualshift train`")
     cfg = json.loads((directory / "config.json").read_text())
     prior = UnimanualPrior.from_pretrained(cfg["prior"])
+    text_encoder = text_encoder or default_text_encoder()
+    spec = cfg.get("text_encoder", DEFAULT_SPEC)
+    # Older checkpoints recorded the bundled model's folder instead of a spec.
+    residual_encoder = make_text_encoder(spec) if spec.partition(":")[0] in ("minilm", "clip", "st") else text_encoder
     rcfg = ResidualConfig(**cfg["residual"])
-    residual = ResidualPolicy(rcfg, SkillBasis(rcfg.num_skills, text_encoder.dim))
+    residual = ResidualPolicy(rcfg, SkillBasis(rcfg.num_skills, residual_encoder.dim))
     residual.load_state_dict(load_file(str(directory / "model.safetensors")))
     memory = MemoryBank.load(directory / MEMORY_FILE) if rcfg.reference_dim > 0 else None
     stage = FrozenPriorStage(prior, text_encoder, use_projection=cfg.get("use_projection", True),
                              segmenter=cfg.get("segmenter", "simulator"),
                              segmenter_options=cfg.get("segmenter_options"))
-    return BimanualShift(stage, residual, memory)
+    return BimanualShift(stage, residual, memory, residual_encoder)

@@ -31,7 +31,7 @@ from tqdm import tqdm
 from bimanualshift.data.episode import list_episodes
 from bimanualshift.data.frames import KeyframeObservation, scene_of_env
 from bimanualshift.data.seeds import split_seeds
-from bimanualshift.encoders.text import TextEncoder, default_text_encoder
+from bimanualshift.encoders.text import TextEncoder
 from bimanualshift.geometry.frames import rotation_difference
 from bimanualshift.memory.bank import MemoryBank, MemoryEntry
 from bimanualshift.methods.bimanualshift import MEMORY_FILE, BimanualShift, load_bimanualshift, save_residual
@@ -197,7 +197,6 @@ def refine(cfg: RefineConfig, text_encoder: TextEncoder | None = None) -> Path:
     if not train_cfg:
         raise ValueError(f"{checkpoint}/config.json has no train_config; re-train it with this version of "
                          "`bimanualshift train` so refinement can find its demos")
-    text_encoder = text_encoder or default_text_encoder()
     policy = load_bimanualshift(checkpoint, text_encoder)
     task = meta["task"]
 
@@ -214,9 +213,10 @@ def refine(cfg: RefineConfig, text_encoder: TextEncoder | None = None) -> Path:
     if not paths:
         raise FileNotFoundError(f"the demos the checkpoint was trained on are gone: none for {task} under "
                                 f"{train_cfg['data']}")
-    train = residual_data(paths, stage, text_encoder, "prior outputs (demos)", memory=memory, own_memory=True)
+    encoder = policy.text_encoder
+    train = residual_data(paths, stage, encoder, "prior outputs (demos)", memory=memory, own_memory=True)
     val_paths = list_episodes(train_cfg["validation_data"], task)
-    val = residual_data(val_paths, stage, text_encoder, "prior outputs (val)", memory=memory) if val_paths else train
+    val = residual_data(val_paths, stage, encoder, "prior outputs (val)", memory=memory) if val_paths else train
     optimizer = make_lamb(residual.parameters(), lr=cfg.lr)
     lambda_corr = cfg.lambda_corr if corrections is not None else 0.0
 

@@ -16,7 +16,7 @@ import torch
 from safetensors.torch import load_file
 
 from bimanualshift.data.episode import list_episodes
-from bimanualshift.encoders.text import TextEncoder, default_text_encoder
+from bimanualshift.encoders.text import TextEncoder, default_text_encoder, make_text_encoder
 from bimanualshift.geometry.frames import rotation_difference
 from bimanualshift.memory.bank import MemoryBank, MemoryEntry
 from bimanualshift.memory.reference import REFERENCE_DIM, episode_key, reference_vector
@@ -54,6 +54,7 @@ class TrainConfig:
     structured: bool = True
     retrieval: bool = False  # the memory bank's temporal reference as a Manager input (Eq. 8-9)
     retrieval_threshold: float = 0.5  # cosine similarity below which no reference is used
+    text_encoder: str = "minilm"  # the residual's instruction / skill-verb encoder: minilm | clip | clip:<dir>
     augment_copies: int = 0  # shifted copies of every demo keyframe, each through the frozen prior
     augment_max_voxels: int = 2
     seed: int = 0
@@ -84,7 +85,8 @@ def residual_data(paths: list[Path], stage: FrozenPriorStage, text_encoder: Text
     samples = build_arm_samples(paths, stage.builder, stage.max_keyframes, desc=desc)
     grid = stage.builder.grid
     arm_index = torch.as_tensor([ARM_ORDER.index(a) if a in ARM_ORDER else 0 for a in samples.arm])
-    text = torch.as_tensor(text_encoder.encode(samples.instructions))
+    text = torch.as_tensor(text_encoder.encode(samples.instructions))  # the residual's (Manager, memory key)
+    prior_text = torch.as_tensor(stage.text_encoder.encode(samples.instructions))  # the prior's own
     generator = torch.Generator().manual_seed(seed)
     parts = []
     for copy in range(1 + augment_copies):
@@ -104,7 +106,7 @@ def residual_data(paths: list[Path], stage: FrozenPriorStage, text_encoder: Text
         with torch.no_grad():
             for start in range(0, len(samples), 32):
                 sl = slice(start, start + 32)
-                out = stage.prior.predict(voxels[sl], proprio[sl], text[sl])
+                out = stage.prior.predict(voxels[sl], proprio[sl], prior_text[sl])
                 features.append(out.features)
                 base.append(out.base_action())
         features_t, base_t = torch.cat(features), torch.cat(base)
@@ -197,9 +199,9 @@ def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Pat
     out = Path(cfg.out)
     out.mkdir(parents=True, exist_ok=True)
     atomic_write_json(out / "train_config.json", asdict(cfg))
-    text_encoder = default_text_encoder()
+    text_encoder = make_text_encoder(cfg.text_encoder)  # the prior keeps the encoder it was pretrained with
     prior = prior if prior is not None else UnimanualPrior.from_pretrained(cfg.prior)
-    stage = FrozenPriorStage(prior, text_encoder, use_projection=cfg.use_projection, segmenter=cfg.segmenter,
+    stage = FrozenPriorStage(prior, default_text_encoder(), use_projection=cfg.use_projection, segmenter=cfg.segmenter,
                              segmenter_options=segmenter_options(cfg.grounding_dino, cfg.sam))
     paths = list_episodes(cfg.data, cfg.task)[: cfg.demos]
     if not paths:
@@ -220,7 +222,7 @@ def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Pat
                        "retrieval": cfg.retrieval,
                        "segmenter_options": segmenter_options(cfg.grounding_dino, cfg.sam),
                        "task": cfg.task, "demos": len(paths), "train_config": asdict(cfg),
-                       "text_encoder": getattr(text_encoder, "name", "custom")}
+                       "text_encoder": cfg.text_encoder}
 
     def step_fn(step: int, gen: torch.Generator) -> dict[str, torch.Tensor]:
         index = torch.randint(len(train.inputs), (cfg.batch_size,), generator=gen)
