@@ -13,7 +13,7 @@ PRIOR_SIZES: dict[str, dict[str, dict[str, Any]]] = {
     },
     "diffusion": {
         "default": {},  # DiffusionConfig defaults: 32^3 voxels, 1024 points, 3 layers of width 128
-        "debug": {"voxel_size": 16, "max_points": 128, "point_dim": 32, "dim": 32, "layers": 1, "heads": 2,
+        "debug": {"voxel_size": 16, "max_points": 128, "point_dim": 32, "cells": 2, "dim": 32, "layers": 1, "heads": 2,
                   "train_timesteps": 20, "inference_steps": 3},
     },
 }

@@ -89,3 +89,16 @@ def test_wrong_shapes_give_a_clear_error(tmp_path: Path) -> None:
     (tmp_path / "dp" / "config.json").write_text(cfg)
     with pytest.raises(ValueError, match="does not match its config.json"):
         UnimanualPrior.from_pretrained(tmp_path / "dp")
+
+
+def test_point_tokens_keep_where_the_points_are() -> None:
+    from bimanualshift.priors.diffusion.modeling_diffusion import PointEncoder
+
+    enc = PointEncoder(voxel_size=8, max_points=16, dim=8, cells=2)
+    voxels = torch.zeros(1, 4, 8, 8, 8)
+    voxels[0, :, 7, 7, 7] = 1.0  # one occupied voxel, in the last of the 2^3 cells
+    tokens, feature = enc(voxels)
+    assert tokens.shape == (1, 8, 8) and feature.shape == (1, 8)
+    empty = tokens[0, :7] - enc.cell_embedding[:7]
+    assert torch.equal(empty, torch.zeros_like(empty))  # empty cells carry only their cell embedding
+    torch.testing.assert_close(tokens[0, 7] - enc.cell_embedding[7], feature[0])  # the point's cell holds it

