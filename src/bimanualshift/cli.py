@@ -289,6 +289,13 @@ def cmd_refine(args: argparse.Namespace) -> None:
     print(f"refined BimanualShift checkpoint: {best}")
 
 
+def cmd_bench(args: argparse.Namespace) -> None:
+    from bimanualshift.evaluation.bench import BenchConfig, run_bench
+
+    summary = run_bench(_config_from_args(BenchConfig, args))
+    print(f"wrote {summary} (table.md, success.png, episodes.jsonl, videos/ beside it)")
+
+
 def cmd_eval(args: argparse.Namespace) -> None:
     from bimanualshift.data.seeds import split_seeds
     from bimanualshift.encoders.text import default_text_encoder
@@ -338,6 +345,7 @@ def cmd_report(args: argparse.Namespace) -> None:
 
 def build_parser() -> argparse.ArgumentParser:
     from bimanualshift.demo import DemoConfig
+    from bimanualshift.evaluation.bench import BenchConfig
     from bimanualshift.training.pretrain import PretrainConfig
     from bimanualshift.training.refine import RefineConfig
     from bimanualshift.training.residual import TrainConfig
@@ -423,6 +431,9 @@ def build_parser() -> argparse.ArgumentParser:
     _add_config_command(sub, "refine", "retrieval-conditioned refinement: roll out on training scenes, correct "
                                        "failures with the expert, fine-tune the residual, grow the memory bank",
                         RefineConfig, cmd_refine)
+
+    _add_config_command(sub, "bench", "methods x bimanual tasks on fixed seeds: train, evaluate in parallel, "
+                                      "table, plot, videos (resumable)", BenchConfig, cmd_bench)
 
     p = sub.add_parser("eval", help="evaluate a method on held-out seeds")
     p.add_argument("--method", default="bimanualshift",

@@ -99,6 +99,10 @@ def generic_table(result: dict[str, Any]) -> str:
 def table_for(result: dict[str, Any]) -> str:
     """Expert measurements, success rates of methods, or a generic table of whatever the rows hold."""
     first = result["rows"][0] if result["rows"] else {}
+    if result.get("bench"):
+        from bimanualshift.evaluation.bench import bench_table
+
+        return "\n".join([bench_table(result["rows"]), _footer(result)]) + "\n"
     if "prior" in first and "tasks" in first:
         return priors_table(result)
     if "segmenter" in first and "kept" in first:

@@ -12,19 +12,24 @@ J = TypeVar("J")
 R = TypeVar("R")
 
 
-def run_jobs(fn: Callable[[J], R], jobs: Iterable[J], workers: int = 1, desc: str = "jobs", chunksize: int = 2
-             ) -> list[R]:
-    """Results of ``fn`` over ``jobs`` in completion order (``fn`` must be importable: workers are spawned)."""
+def run_jobs(fn: Callable[[J], R], jobs: Iterable[J], workers: int = 1, desc: str = "jobs", chunksize: int = 2,
+             on_result: Callable[[R], None] | None = None) -> list[R]:
+    """Results of ``fn`` over ``jobs`` in completion order (``fn`` must be importable: workers are spawned).
+    ``on_result`` sees each result as it arrives (e.g. to append it to a log a killed run resumes from)."""
     jobs = list(jobs)
     results: list[R] = []
     with tqdm(total=len(jobs), desc=desc, unit="ep") as bar:
         if workers <= 1:
             for job in jobs:
                 results.append(fn(job))
+                if on_result is not None:
+                    on_result(results[-1])
                 bar.update()
         else:
             with mp.get_context("spawn").Pool(workers) as pool:
                 for result in pool.imap_unordered(fn, jobs, chunksize=chunksize):
                     results.append(result)
+                    if on_result is not None:
+                        on_result(result)
                     bar.update()
     return results

@@ -1,0 +1,249 @@
+"""`bimanualshift bench`: methods x tasks on fixed, disjoint seeds, resumable, with a table, a plot and videos.
+
+For every task: expert demos on train seeds (the first ``demos``) and validation seeds (checkpoint choice);
+every method is trained on them (methods that train nothing skip this) and rolled out on the same test seeds.
+Each finished episode is appended to ``episodes.jsonl`` at once, so a killed run continues where it stopped;
+trained runs resume from their own checkpoints. The summary (``summary.json``, the results envelope), a
+Table-I-style markdown table, a bar plot and a few rollout videos are written at the end.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shlex
+import sys
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from bimanualshift.data.seeds import split_seeds
+from bimanualshift.evaluation.stats import wilson_interval
+from bimanualshift.methods.registry import METHODS, TrainRequest, get_method
+from bimanualshift.utils.io import atomic_write_text
+from bimanualshift.utils.workers import run_jobs
+
+KEYFRAME_BUDGET = 2  # an episode stops at this multiple of the expert's keyframe count on the same seed
+DEFAULT_METHODS = ["bimanualshift", "no_projection", "no_residual", "no_retrieval", "unstructured",
+                   "frozen_prior_per_arm"]
+
+
+@dataclass
+class BenchConfig:
+    tasks: list[str] = field(default_factory=lambda: ["bimanual"])  # task names or a group (bimanual)
+    methods: list[str] = field(default_factory=lambda: list(DEFAULT_METHODS))
+    demos: int = 30
+    validation_demos: int = 5
+    episodes: int = 100  # test seeds per task
+    prior: str = "peract_suite"
+    residual_steps: int = 1500
+    workers: int = 2
+    data: str = "data/bench"
+    runs: str = "runs/bench"
+    out: str = "results/bench"
+    videos: int = 1  # test episodes recorded per task and method
+    max_keyframes: int = 0  # a hard cap on episode length on top of the expert-relative budget (0: none)
+    seed: int = 0
+
+
+@dataclass(frozen=True)
+class BenchJob:
+    method: str
+    task: str
+    seed: int
+    checkpoint: str  # "" when the method trains nothing
+    request: dict[str, Any]
+    video: str = ""  # write this episode's front-camera video here
+    max_keyframes: int = 0
+
+
+_CACHE: dict[Any, Any] = {}
+
+
+def _request(cfg: BenchConfig, task: str, method: str) -> TrainRequest:
+    return TrainRequest(task=task, data=f"{cfg.data}/train", validation_data=f"{cfg.data}/validation",
+                        demos=cfg.demos, prior=cfg.prior, out=f"{cfg.runs}/{task}/{method}",
+                        steps=cfg.residual_steps, seed=cfg.seed)
+
+
+def run_bench_episode(job: BenchJob) -> dict[str, Any]:
+    """One test episode in a worker (environments and loaded policies are cached per process)."""
+    import torch
+
+    from bimanualshift.evaluation.media import write_video
+    from bimanualshift.evaluation.rollout import rollout
+    from bimanualshift.sim.env import ManipulationEnv
+
+    torch.set_num_threads(1)  # one process per core
+    if ("env", job.task) not in _CACHE:
+        _CACHE[("env", job.task)] = ManipulationEnv(job.task)
+    env = _CACHE[("env", job.task)]
+    key = ("policy", job.method, job.task, job.checkpoint)
+    if key not in _CACHE:
+        request = TrainRequest(**job.request)
+        _CACHE[key] = get_method(job.method).load(Path(job.checkpoint) if job.checkpoint else None, request)
+    env.reset(seed=job.seed, options={"render": False})
+    budget = KEYFRAME_BUDGET * len(env.expert_keyframes())
+    budget = min(budget, job.max_keyframes) if job.max_keyframes else budget
+    record = rollout(env, _CACHE[key], job.seed, budget, record_camera="front" if job.video else None)
+    if job.video:
+        write_video(job.video, record.frames)
+    return {"task": job.task, "method": job.method, "seed": job.seed, "success": record.success,
+            "keyframes": record.keyframes, "budget": budget}
+
+
+def read_episodes(path: Path) -> list[dict[str, Any]]:
+    """Finished episodes of an earlier run; a line cut short by a kill is ignored (that episode is re-run)."""
+    if not path.is_file():
+        return []
+    episodes = []
+    for line in path.read_text().splitlines():
+        try:
+            episodes.append(json.loads(line))
+        except json.JSONDecodeError:
+            continue
+    return episodes
+
+
+def append_episode(path: Path, episode: dict[str, Any]) -> None:
+    with path.open("a+b") as f:
+        f.seek(0, os.SEEK_END)
+        if f.tell() > 0:
+            f.seek(-1, os.SEEK_END)
+            if f.read(1) != b"\n":  # a line cut short by a kill: start a fresh one
+                f.write(b"\n")
+        f.write((json.dumps(episode) + "\n").encode())
+        f.flush()
+        os.fsync(f.fileno())
+
+
+def bench_rows(episodes: list[dict[str, Any]], methods: list[str], tasks: list[str], demos: int
+               ) -> list[dict[str, Any]]:
+    """Success per (task, method) with Wilson 95 % intervals, then each method's average over the tasks."""
+    rows = []
+    for method in methods:
+        rates = []
+        for task in tasks:
+            mine = [e for e in episodes if e["method"] == method and e["task"] == task]
+            if not mine:
+                continue
+            k = sum(e["success"] for e in mine)
+            lo, hi = wilson_interval(k, len(mine))
+            rates.append((k, len(mine)))
+            rows.append({"task": task, "method": method, "demos": demos, "success": round(k / len(mine), 4),
+                         "episodes": len(mine), "ci95": [round(lo, 4), round(hi, 4)]})
+        if len(rates) > 1:
+            k, n = sum(r[0] for r in rates), sum(r[1] for r in rates)
+            lo, hi = wilson_interval(k, n)
+            rows.append({"task": "average", "method": method, "demos": demos,
+                         "success": round(float(np.mean([a / b for a, b in rates])), 4), "episodes": n,
+                         "ci95": [round(lo, 4), round(hi, 4)]})
+    return rows
+
+
+def bench_table(rows: list[dict[str, Any]]) -> str:
+    """Table I's layout: one row per method, one column per task, then the average."""
+    tasks = list(dict.fromkeys(r["task"] for r in rows))
+    methods = list(dict.fromkeys(r["method"] for r in rows))
+    cell = {(r["method"], r["task"]): r for r in rows}
+    lines = ["| method | " + " | ".join(t.replace("_", " ") for t in tasks) + " |", "|---|" + "---|" * len(tasks)]
+    for method in methods:
+        cells = []
+        for task in tasks:
+            r = cell.get((method, task))
+            cells.append("–" if r is None else
+                         f"{100 * r['success']:.0f} ({100 * r['ci95'][0]:.0f}–{100 * r['ci95'][1]:.0f})")
+        lines.append(f"| {method} | " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def bar_plot(path: Path, rows: list[dict[str, Any]], title: str) -> Path:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from bimanualshift.utils.io import atomic_writer
+
+    tasks = list(dict.fromkeys(r["task"] for r in rows))
+    methods = list(dict.fromkeys(r["method"] for r in rows))
+    cell = {(r["method"], r["task"]): r for r in rows}
+    width = 0.8 / len(methods)
+    fig, ax = plt.subplots(figsize=(max(6.0, 1.6 * len(tasks)), 3.8))
+    for i, method in enumerate(methods):
+        xs, ys, err = [], [], [[], []]
+        for j, task in enumerate(tasks):
+            r = cell.get((method, task))
+            if r is None:
+                continue
+            xs.append(j + (i - (len(methods) - 1) / 2) * width)
+            ys.append(100 * r["success"])
+            err[0].append(100 * (r["success"] - r["ci95"][0]))
+            err[1].append(100 * (r["ci95"][1] - r["success"]))
+        ax.bar(xs, ys, width, yerr=err, capsize=2, label=method)
+    ax.set_xticks(range(len(tasks)), [t.replace("_", "\n") for t in tasks], fontsize=8)
+    ax.set_ylabel("success (%)")
+    ax.set_ylim(0, 100)
+    ax.set_title(title, fontsize=10)
+    ax.legend(fontsize=7, ncols=min(len(methods), 3))
+    fig.tight_layout()
+    with atomic_writer(path) as tmp:
+        fig.savefig(tmp, format="png", dpi=120)
+    plt.close(fig)
+    return path
+
+
+def run_bench(cfg: BenchConfig, command: str | None = None) -> Path:
+    from bimanualshift.data.collect import collect
+    from bimanualshift.evaluation.report import print_success_table, write_result
+    from bimanualshift.sim.task import resolve_task_names, task_names
+
+    started = time.time()
+    command = command or " ".join(["bimanualshift bench", *(shlex.quote(a) for a in sys.argv[2:])])
+    tasks = resolve_task_names(cfg.tasks)
+    single = [t for t in tasks if t not in task_names(bimanual=True)]
+    if single:
+        raise ValueError(f"{single} are single-arm tasks; the benchmark compares bimanual methods "
+                         "(measure priors with `bimanualshift prior-report`)")
+    for method in cfg.methods:
+        get_method(method)
+    out = Path(cfg.out)
+    (out / "videos").mkdir(parents=True, exist_ok=True)
+    seeds = {"train": split_seeds("train", cfg.demos), "validation": split_seeds("validation", cfg.validation_demos),
+             "test": split_seeds("test", cfg.episodes)}
+
+    jobs = []
+    for task in tasks:
+        collect([task], seeds["train"], f"{cfg.data}/train", workers=cfg.workers)
+        collect([task], seeds["validation"], f"{cfg.data}/validation", workers=cfg.workers)
+        for method in cfg.methods:
+            request = _request(cfg, task, method)
+            checkpoint = get_method(method).train(request)
+            for i, seed in enumerate(seeds["test"]):
+                video = str(out / "videos" / f"{task}_{method}_{seed}.mp4") if i < cfg.videos else ""
+                jobs.append(BenchJob(method, task, seed, str(checkpoint or ""), asdict(request), video,
+                                     cfg.max_keyframes))
+
+    log = out / "episodes.jsonl"
+    done = {(e["task"], e["method"], e["seed"]) for e in read_episodes(log)}
+    todo = [j for j in jobs if (j.task, j.method, j.seed) not in done]
+    if done:
+        print(f"[bench] resuming: {len(done)} episodes already recorded, {len(todo)} to go")
+    run_jobs(run_bench_episode, todo, cfg.workers, desc="bench episodes", chunksize=1,
+             on_result=lambda episode: append_episode(log, episode))
+
+    wanted = {(j.task, j.method, j.seed) for j in jobs}
+    episodes = [e for e in read_episodes(log) if (e["task"], e["method"], e["seed"]) in wanted]
+    rows = bench_rows(episodes, cfg.methods, tasks, cfg.demos)
+    print_success_table(rows, f"bench: {cfg.demos} demos, {cfg.episodes} test episodes per task")
+    title = f"{cfg.demos} demos, {cfg.episodes} test episodes per task (95 % Wilson intervals)"
+    bar_plot(out / "success.png", rows, title)
+    atomic_write_text(out / "table.md", bench_table(rows))
+    write_result(out / "summary.json", command, seeds, started, rows, bench=True, config=asdict(cfg),
+                 methods={m: METHODS[m].description for m in cfg.methods},
+                 notes=f"prior {cfg.prior}; episodes stop at {KEYFRAME_BUDGET}x the expert's keyframes on the "
+                       "same seed; wall time covers this invocation only (a resumed run reuses earlier work)")
+    return out / "summary.json"

@@ -1,0 +1,104 @@
+"""Every method the benchmark compares, by name: how it is trained on a task's demos and how it is loaded.
+
+Methods share the task, data and rollout code; a method only says what differs (diffusion_policy's split of
+tasks and methods: N tasks + M methods cost N + M code). The ablations are the full method with one switch off.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from bimanualshift.evaluation.rollout import Policy
+
+
+@dataclass(frozen=True)
+class TrainRequest:
+    """What the benchmark hands every method: one task's demos and where to put the run."""
+
+    task: str
+    data: str  # train demos (one sub-folder per task)
+    validation_data: str  # validation demos (checkpoint choice)
+    demos: int
+    prior: str  # the frozen single-arm prior (a folder or a shipped name)
+    out: str  # the method's run directory for this task
+    steps: int = 1500
+    seed: int = 0
+    overrides: dict[str, Any] = field(default_factory=dict)  # extra TrainConfig fields
+
+
+@dataclass(frozen=True)
+class MethodSpec:
+    name: str
+    description: str
+    train: Callable[[TrainRequest], Path | None]  # the checkpoint to evaluate; None when nothing is trained
+    load: Callable[[Path | None, TrainRequest], Policy]
+
+
+METHODS: dict[str, MethodSpec] = {}
+
+
+def register_method(spec: MethodSpec) -> MethodSpec:
+    if spec.name in METHODS:
+        raise ValueError(f"method {spec.name!r} is already registered")
+    METHODS[spec.name] = spec
+    return spec
+
+
+def get_method(name: str) -> MethodSpec:
+    if name not in METHODS:
+        raise ValueError(f"unknown method {name!r}; choose from {sorted(METHODS)}")
+    return METHODS[name]
+
+
+def _residual_method(name: str, description: str, **switches: Any) -> MethodSpec:
+    """BimanualShift trained with ``switches`` (TrainConfig fields) on top of the request."""
+
+    def train(request: TrainRequest) -> Path:
+        from bimanualshift.training.residual import TrainConfig, train_residual
+
+        cfg = TrainConfig(task=request.task, prior=request.prior, data=request.data,
+                          validation_data=request.validation_data, out=request.out, demos=request.demos,
+                          steps=request.steps, seed=request.seed, **{**switches, **request.overrides})
+        best = Path(request.out) / "best"
+        if (Path(request.out) / "summary.json").is_file() and (best / "config.json").is_file():
+            return best  # trained by an earlier (interrupted) benchmark run
+        return train_residual(cfg)
+
+    def load(checkpoint: Path | None, request: TrainRequest) -> Policy:
+        from bimanualshift.methods.bimanualshift import load_bimanualshift
+
+        policy = load_bimanualshift(checkpoint)
+        policy.name = name
+        return policy
+
+    return MethodSpec(name, description, train, load)
+
+
+def _frozen_prior_method(name: str, description: str, use_projection: bool) -> MethodSpec:
+    def load(checkpoint: Path | None, request: TrainRequest) -> Policy:
+        from bimanualshift.encoders.text import default_text_encoder
+        from bimanualshift.methods.leader_follower import FrozenPriorPerArm
+
+        return FrozenPriorPerArm.from_pretrained(request.prior, default_text_encoder(), name=name,
+                                                 use_projection=use_projection)
+
+    return MethodSpec(name, description, lambda request: None, load)
+
+
+register_method(_residual_method(
+    "bimanualshift", "projection + residual skill modulation + retrieval (the full method)", retrieval=True))
+register_method(_residual_method(
+    "no_projection", "ablation: the prior sees the global scene", retrieval=True, use_projection=False))
+register_method(_frozen_prior_method(
+    "no_residual", "ablation: the frozen prior per arm through the projection, no residual", use_projection=True))
+register_method(_residual_method(
+    "no_retrieval", "ablation: no memory bank reference", retrieval=False))
+register_method(_residual_method(
+    "unstructured", "ablation: an MLP residual with no skill basis", retrieval=True, structured=False))
+register_method(_frozen_prior_method(
+    "frozen_prior_per_arm", "baseline: the frozen prior drives each arm on the global scene, nothing trained",
+    use_projection=False))
+

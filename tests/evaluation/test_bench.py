@@ -1,0 +1,56 @@
+"""The benchmark harness: rows and averages, a real (tiny) resumable run, and the method registry."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from bimanualshift.evaluation.bench import BenchConfig, bench_rows, bench_table, read_episodes, run_bench
+from bimanualshift.evaluation.stats import wilson_interval
+from bimanualshift.methods.registry import METHODS, get_method
+
+
+def test_rows_average_tasks_and_pool_intervals() -> None:
+    episodes = ([{"task": "a", "method": "m", "seed": s, "success": s < 3} for s in range(4)]
+                + [{"task": "b", "method": "m", "seed": s, "success": s < 1} for s in range(4)])
+    rows = bench_rows(episodes, ["m"], ["a", "b"], demos=5)
+    assert [(r["task"], r["success"]) for r in rows] == [("a", 0.75), ("b", 0.25), ("average", 0.5)]
+    assert rows[2]["ci95"] == [round(x, 4) for x in wilson_interval(4, 8)] and rows[2]["episodes"] == 8
+    table = bench_table(rows)
+    assert table.splitlines()[0] == "| method | a | b | average |" and "| m | 75 (" in table
+
+
+def test_registry_names_every_ablation_and_refuses_unknown_methods() -> None:
+    assert {"bimanualshift", "no_projection", "no_residual", "no_retrieval", "unstructured"} <= set(METHODS)
+    with pytest.raises(ValueError, match="unknown method 'act'"):
+        get_method("act")
+
+
+def test_bench_runs_resumes_and_reports(demo_root: Path, tmp_path: Path) -> None:
+    from tests.training.test_train_resume import pretrain, pretrain_cfg
+
+    prior = pretrain(pretrain_cfg(demo_root, tmp_path / "prior", steps=2))
+    cfg = BenchConfig(tasks=["push_two_buttons"], methods=["bimanualshift", "no_residual"], demos=2,
+                      validation_demos=1, episodes=2, prior=str(prior), residual_steps=2, workers=1,
+                      data=str(tmp_path / "data"), runs=str(tmp_path / "runs"), out=str(tmp_path / "out"), videos=1,
+                      max_keyframes=1)
+    summary = run_bench(cfg, command="test")
+    log = tmp_path / "out" / "episodes.jsonl"
+    first = read_episodes(log)
+    assert sorted((e["method"], e["seed"]) for e in first) == [
+        ("bimanualshift", 200000), ("bimanualshift", 200001), ("no_residual", 200000), ("no_residual", 200001)]
+    # A run killed mid-write: the last record lost and half a line left behind. Resuming re-runs only that one.
+    lines = log.read_text().splitlines()
+    log.write_text("\n".join(lines[:-1]) + '\n{"task": "push_two_bu')
+    run_bench(cfg, command="test")
+    again = read_episodes(log)
+    assert len(again) == 4 and sorted(map(json.dumps, again)) == sorted(map(json.dumps, first))
+    result = json.loads(summary.read_text())
+    assert result["bench"] and {r["method"] for r in result["rows"]} == {"bimanualshift", "no_residual"}
+    assert result["seeds"]["test"] == [200000, 200001] and result["seeds"]["train"] == [0, 1]
+    out = tmp_path / "out"
+    assert (out / "success.png").stat().st_size > 0 and (out / "table.md").read_text().startswith("| method |")
+    assert sorted(p.name for p in (out / "videos").iterdir()) == [
+        "push_two_buttons_bimanualshift_200000.mp4", "push_two_buttons_no_residual_200000.mp4"]
