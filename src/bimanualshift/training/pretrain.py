@@ -26,7 +26,7 @@ from bimanualshift.priors import PRIORS, UnimanualPrior
 from bimanualshift.sim.task import resolve_task_names, task_names
 from bimanualshift.training.augment import Se3Augmentation, transform_points, transform_quats, transform_voxels
 from bimanualshift.training.loop import run_training
-from bimanualshift.training.optim import make_lamb
+from bimanualshift.training.optim import make_optimizer
 from bimanualshift.training.samples import ArmSamples, action_chunks, build_arm_samples
 from bimanualshift.utils.io import atomic_write_json, atomic_write_text
 
@@ -43,6 +43,7 @@ class PretrainConfig:
     steps: int = 3000
     batch_size: int = 4
     lr: float = 1e-3
+    optimizer: str = "lamb"  # lamb (PerAct, the paper) or adamw (Diffusion Policy)
     checkpoint_every: int = 250
     augment_translation_m: float = 0.04  # SE(3) augmentation: horizontal shift ...
     augment_yaw_deg: float = 15.0  # ... and yaw about the grid's vertical axis; 0 and 0 turn it off
@@ -135,7 +136,8 @@ def model_card(cfg: PretrainConfig, kind: str, step: int, accuracy: float, train
         f"bimanualshift collect --task {tasks} --episodes {val_episodes // len(names)} "
         f"--split validation --out {cfg.validation_data} --workers 2",
         f"bimanualshift pretrain --prior {cfg.prior} --size {cfg.size} --tasks {tasks} --data {cfg.data} "
-        f"--validation-data {cfg.validation_data} --steps {cfg.steps} --seed {cfg.seed}{overrides}",
+        f"--validation-data {cfg.validation_data} --steps {cfg.steps} --batch-size {cfg.batch_size} "
+        f"--lr {cfg.lr} --optimizer {cfg.optimizer} --seed {cfg.seed}{overrides}",
     ])
     what = {"peract": "voxels in the arm's base frame -> translation heat-map, Euler rotation bins, gripper and "
                       "collision (PerAct-style)",
@@ -150,7 +152,7 @@ A frozen unimanual prior for BimanualShift: {what}. Trained on **single-arm demo
 | training tasks | {", ".join(names)} |
 | training episodes | {train_episodes} (scripted expert, train seeds from 0) |
 | validation episodes | {val_episodes} (validation seeds from 100000; used to pick this checkpoint) |
-| chosen step | {step} of {cfg.steps} (batch {cfg.batch_size}, LAMB lr {cfg.lr}, {augmentation}) |
+| chosen step | {step} of {cfg.steps} (batch {cfg.batch_size}, {cfg.optimizer} lr {cfg.lr}, {augmentation}) |
 | parameters | {parameters:,} |
 | validation keyframes within 3 cm | {100 * accuracy:.1f} % |
 | training time to this step | {wall_time_s / 60:.1f} min (optimisation and validation, after data loading) |
@@ -192,7 +194,7 @@ def pretrain(cfg: PretrainConfig) -> Path:
     val = (PriorBatches(build_arm_samples(val_paths, builder, desc="voxelise val"), grid, model.action_horizon)
            if val_paths else None)
     model.set_normalization(train.actions["position"].reshape(-1, 3))
-    optimizer = make_lamb(model.parameters(), lr=cfg.lr)
+    optimizer = make_optimizer(cfg.optimizer, model.parameters(), cfg.lr)
     augmentation = (Se3Augmentation(cfg.augment_translation_m, cfg.augment_yaw_deg)
                     if cfg.augment_translation_m > 0 or cfg.augment_yaw_deg > 0 else None)
 

@@ -27,6 +27,7 @@ class DiffusionConfig(PriorConfig):
     heads: int = 4
     train_timesteps: int = 100  # DDPM noise levels
     inference_steps: int = 10  # DDIM steps at inference
+    prediction_type: str = "sample"  # the denoiser predicts the clean chunk (as DP3 does) or "epsilon", the noise
     sample_seed: int = 0  # the initial noise of inference is seeded: predictions are deterministic
 
     @property

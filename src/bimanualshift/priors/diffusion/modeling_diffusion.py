@@ -2,10 +2,10 @@
 
 The observation encoder reads the arm's voxel grid (already projected by the arm-conditioned projection when it
 serves a bimanual robot) as a coloured point cloud of occupied voxels and encodes it with a PointNet (shared MLP,
-max-pool). A transformer denoiser predicts the noise added to a normalised action chunk (position, 6-D rotation,
-gripper, collision flag per keyframe), conditioned on the observation, instruction and diffusion step. Training
-is DDPM (epsilon prediction), inference a few DDIM steps from seeded noise; both schedulers come from
-``diffusers``.
+max-pooled per spatial cell). A transformer denoiser cross-attends to those cell tokens, the instruction and the
+proprioception and denoises a normalised action chunk (position, 6-D rotation, gripper, collision flag per
+keyframe). Training is DDPM (predicting the clean chunk by default, as DP3 does, or the noise), inference a few
+DDIM steps from seeded noise; both schedulers come from ``diffusers``.
 """
 
 from __future__ import annotations
@@ -85,6 +85,8 @@ class DiffusionPrior(UnimanualPrior):
     def __init__(self, config: DiffusionConfig) -> None:
         super().__init__(config)
         c = config
+        if c.prediction_type not in ("sample", "epsilon"):
+            raise ValueError(f"prediction_type must be 'sample' or 'epsilon', got {c.prediction_type!r}")
         self.grid = VoxelGrid(tuple(c.bounds), c.voxel_size)
         self.points = PointEncoder(c.voxel_size, c.max_points, c.point_dim, c.cells)
         self.obs_tokens = nn.ModuleDict({
@@ -103,7 +105,7 @@ class DiffusionPrior(UnimanualPrior):
         self.register_buffer("action_low", torch.cat([torch.as_tensor(self.grid.lower), -torch.ones(c.action_dim - 3)]))
         self.register_buffer("action_high", torch.cat([torch.as_tensor(self.grid.upper), torch.ones(c.action_dim - 3)]))
         schedule = {"num_train_timesteps": c.train_timesteps, "beta_schedule": "squaredcos_cap_v2",
-                    "clip_sample": True, "prediction_type": "epsilon"}
+                    "clip_sample": True, "prediction_type": c.prediction_type}
         self.train_scheduler = DDPMScheduler(**schedule)
         self.sample_scheduler = DDIMScheduler(**schedule)
 
@@ -152,7 +154,7 @@ class DiffusionPrior(UnimanualPrior):
 
     def compute_loss(self, inputs: tuple[torch.Tensor, ...], actions: dict[str, torch.Tensor],
                      generator: torch.Generator | None = None) -> dict[str, torch.Tensor]:
-        """DDPM epsilon-prediction loss on the normalised action chunk."""
+        """DDPM loss on the normalised action chunk: the error of the predicted clean chunk or noise."""
         clean = self.encode_actions(actions["position"], actions["quat"], actions["gripper_open"],
                                     actions["ignore_collisions"])
         tokens, _ = self.observation(*inputs)
@@ -160,7 +162,8 @@ class DiffusionPrior(UnimanualPrior):
         noise = torch.randn(clean.shape, generator=generator)
         t = torch.randint(0, self.config.train_timesteps, (b,), generator=generator)
         noisy = self.train_scheduler.add_noise(clean, noise, t)
-        loss = F.mse_loss(self.denoise(noisy, t, tokens), noise)
+        target = clean if self.config.prediction_type == "sample" else noise
+        loss = F.mse_loss(self.denoise(noisy, t, tokens), target)
         return {"diffusion": loss, "total": loss}
 
     @torch.no_grad()
