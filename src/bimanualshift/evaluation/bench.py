@@ -28,7 +28,7 @@ from bimanualshift.utils.workers import run_jobs
 
 KEYFRAME_BUDGET = 2  # an episode stops at this multiple of the expert's keyframe count on the same seed
 DEFAULT_METHODS = ["bimanualshift", "no_projection", "no_residual", "no_retrieval", "unstructured",
-                   "frozen_prior_per_arm"]
+                   "frozen_prior_per_arm", "scratch_voxel"]
 
 
 @dataclass
@@ -40,6 +40,7 @@ class BenchConfig:
     episodes: int = 100  # test seeds per task
     prior: str = "peract_suite"
     residual_steps: int = 1500
+    method_steps: dict = field(default_factory=lambda: {"scratch_voxel": 3000})  # per-method training steps
     workers: int = 2
     data: str = "data/bench"
     runs: str = "runs/bench"
@@ -66,7 +67,7 @@ _CACHE: dict[Any, Any] = {}
 def _request(cfg: BenchConfig, task: str, method: str) -> TrainRequest:
     return TrainRequest(task=task, data=f"{cfg.data}/train", validation_data=f"{cfg.data}/validation",
                         demos=cfg.demos, prior=cfg.prior, out=f"{cfg.runs}/{task}/{method}",
-                        steps=cfg.residual_steps, seed=cfg.seed)
+                        steps=int(cfg.method_steps.get(method, cfg.residual_steps)), seed=cfg.seed)
 
 
 def run_bench_episode(job: BenchJob) -> dict[str, Any]:

@@ -102,3 +102,26 @@ register_method(_frozen_prior_method(
     "frozen_prior_per_arm", "baseline: the frozen prior drives each arm on the global scene, nothing trained",
     use_projection=False))
 
+
+
+def _scratch_voxel_method() -> MethodSpec:
+    def train(request: TrainRequest) -> Path:
+        from bimanualshift.training.scratch_voxel import train_scratch_voxel
+
+        best = Path(request.out) / "best"
+        if (Path(request.out) / "summary.json").is_file() and (best / "config.json").is_file():
+            return best
+        return train_scratch_voxel(request, **request.overrides)
+
+    def load(checkpoint: Path | None, request: TrainRequest) -> Policy:
+        from bimanualshift.encoders.text import default_text_encoder
+        from bimanualshift.methods.baselines.scratch_voxel import ScratchVoxelPolicy
+        from bimanualshift.priors.base import UnimanualPrior
+
+        return ScratchVoxelPolicy(UnimanualPrior.from_pretrained(checkpoint), default_text_encoder())
+
+    return MethodSpec("scratch_voxel", "baseline: a PerAct2-style voxel policy for both arms trained from scratch on "
+                      "the bimanual demos (global scene, no prior, no residual)", train, load)
+
+
+register_method(_scratch_voxel_method())

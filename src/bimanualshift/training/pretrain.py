@@ -70,9 +70,11 @@ def build_prior(cfg: PretrainConfig) -> UnimanualPrior:
 class PriorBatches:
     """Samples, their action chunks and instruction embeddings, served as (augmented) training batches."""
 
-    def __init__(self, samples: ArmSamples, grid: VoxelGrid, horizon: int) -> None:
+    def __init__(self, samples: ArmSamples, grid: VoxelGrid, horizon: int, extra_poses: tuple[int, ...] = ()
+                 ) -> None:
         self.samples = samples
         self.grid = grid
+        self.extra_poses = extra_poses  # where further poses (position, quaternion) start in the proprio
         chunks = action_chunks(samples, horizon)
         self.actions = {k: torch.as_tensor(v) for k, v in chunks.items()}
         self.voxels = torch.as_tensor(samples.voxels)
@@ -89,15 +91,17 @@ class PriorBatches:
         proprio = self.proprio[index].clone()
         actions = {k: v[index].clone() for k, v in self.actions.items()}
         if generator is not None and augmentation is not None:
-            voxels, proprio, actions = augment_batch(voxels, proprio, actions, self.grid, augmentation, generator)
+            voxels, proprio, actions = augment_batch(voxels, proprio, actions, self.grid, augmentation, generator,
+                                                     self.extra_poses)
         return (voxels, proprio, self.text[index]), actions
 
 
 def augment_batch(voxels: torch.Tensor, proprio: torch.Tensor, actions: dict[str, torch.Tensor], grid: VoxelGrid,
-                  augmentation: Se3Augmentation, generator: torch.Generator
+                  augmentation: Se3Augmentation, generator: torch.Generator, extra_poses: tuple[int, ...] = ()
                   ) -> tuple[torch.Tensor, torch.Tensor, dict[str, torch.Tensor]]:
-    """Move the scene, the gripper's pose in the proprioception and the action chunk by one random rigid motion
-    per sample; samples whose targets would leave the grid stay as they were."""
+    """Move the scene, the gripper's pose in the proprioception (and the further poses starting at
+    ``extra_poses``, e.g. the other arm's) and the action chunk by one random rigid motion per sample; samples
+    whose targets would leave the grid stay as they were."""
     yaw, translation = augmentation.sample(generator, len(voxels))
     moved = transform_points(actions["position"], grid, yaw, translation)
     lower, upper = torch.as_tensor(grid.lower), torch.as_tensor(grid.upper)
@@ -106,8 +110,9 @@ def augment_batch(voxels: torch.Tensor, proprio: torch.Tensor, actions: dict[str
     actions = {**actions, "position": transform_points(actions["position"], grid, yaw, translation),
                "quat": transform_quats(actions["quat"], yaw)}
     proprio = proprio.clone()
-    proprio[:, :3] = transform_points(proprio[:, :3], grid, yaw, translation)
-    proprio[:, 3:7] = transform_quats(proprio[:, 3:7], yaw)
+    for start in (0, *extra_poses):
+        proprio[:, start:start + 3] = transform_points(proprio[:, start:start + 3], grid, yaw, translation)
+        proprio[:, start + 3:start + 7] = transform_quats(proprio[:, start + 3:start + 7], yaw)
     return transform_voxels(voxels, grid, yaw, translation), proprio, actions
 
 

@@ -1,0 +1,1 @@
+"""Baselines the benchmark compares BimanualShift with; each composes the shared stages."""
