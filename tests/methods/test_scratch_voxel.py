@@ -10,25 +10,30 @@ from safetensors.torch import load_file
 
 from bimanualshift.evaluation.rollout import rollout
 from bimanualshift.geometry.voxels import VoxelGrid
-from bimanualshift.methods.baselines.scratch_voxel import ScratchVoxelPolicy, bimanual_proprio
+from bimanualshift.methods.baselines.scratch_voxel import ScratchVoxelPolicy, scratch_extras, train_scratch_voxel
 from bimanualshift.methods.registry import TrainRequest, get_method
 from bimanualshift.priors import UnimanualPrior
 from bimanualshift.sim.env import ManipulationEnv
 from bimanualshift.training.augment import Se3Augmentation
+from bimanualshift.training.bimanual_voxel import with_extra_proprio
 from bimanualshift.training.checkpoint import latest_checkpoint
 from bimanualshift.training.pretrain import augment_batch
-from bimanualshift.training.scratch_voxel import train_scratch_voxel
 
 
-def test_proprio_layout_keeps_the_keyframe_fraction_last() -> None:
-    own = np.arange(9, dtype=np.float32)[None].repeat(2, 0)
-    other = np.full((2, 8), -1.0, np.float32)
-    out = bimanual_proprio(own, other, ["left", "right"])
+def test_extra_proprio_sits_between_own_proprio_and_keyframe_fraction() -> None:
+    from bimanualshift.training.samples import ArmSamples
+
+    n = 2
+    samples = ArmSamples(np.zeros((n, 4, 2, 2, 2), np.float16), np.arange(18, dtype=np.float32).reshape(n, 9),
+                         ["x"] * n, np.zeros((n, 3)), np.zeros((n, 4)), np.zeros(n, np.int64), np.zeros(n, np.int64),
+                         np.zeros(n), np.zeros(n), ["left", "right"], np.full((n, 8), -1.0, np.float32))
+    extra = scratch_extras(samples.other_proprio, samples.arm)
+    out = with_extra_proprio(samples, extra).proprio
     assert out.shape == (2, 19)
-    np.testing.assert_array_equal(out[:, :8], own[:, :8])
-    np.testing.assert_array_equal(out[:, 8:16], other)
+    np.testing.assert_array_equal(out[:, :8], samples.proprio[:, :8])
+    np.testing.assert_array_equal(out[:, 8:16], samples.other_proprio)
     np.testing.assert_array_equal(out[:, 16:18], [[1, 0], [0, 1]])
-    np.testing.assert_array_equal(out[:, 18], own[:, 8])
+    np.testing.assert_array_equal(out[:, 18], samples.proprio[:, 8])
 
 
 def test_augmentation_moves_the_other_arm_with_the_scene() -> None:
@@ -60,10 +65,9 @@ def test_trains_from_scratch_resumes_and_acts(demo_root: Path, tmp_path: Path) -
     straight = load_file(str(latest_checkpoint(tmp_path / "b") / "model.safetensors"))
     for key, value in straight.items():
         assert torch.equal(value, resumed[key]), key
-    model = UnimanualPrior.from_pretrained(best)
-    assert model.config.proprio_dim == 18  # own 8 + other arm 8 + one-hot 2 (the keyframe fraction is the +1)
+    assert UnimanualPrior.from_pretrained(best).config.proprio_dim == 18  # own 8 + other arm 8 + one-hot 2
     policy = spec.load(best, request(tmp_path / "a", 4))
-    assert isinstance(policy, ScratchVoxelPolicy) and policy.builder.projection is None
+    assert isinstance(policy, ScratchVoxelPolicy) and policy.runner.builder.projection is None
     env = ManipulationEnv("push_two_buttons", image_size=64)
     try:
         assert rollout(env, policy, seed=200_000, max_keyframes=1).keyframes == 1

@@ -6,6 +6,7 @@ tasks and methods: N tasks + M methods cost N + M code). The ablations are the f
 
 from __future__ import annotations
 
+import json
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -104,24 +105,38 @@ register_method(_frozen_prior_method(
 
 
 
-def _scratch_voxel_method() -> MethodSpec:
-    def train(request: TrainRequest) -> Path:
-        from bimanualshift.training.scratch_voxel import train_scratch_voxel
+def _backbone_method(name: str, description: str, trainer: str, policy: str) -> MethodSpec:
+    """A baseline that trains or fine-tunes a voxel backbone; ``trainer`` / ``policy`` name functions in
+    ``bimanualshift.methods.baselines.<module>`` as "module:function"."""
 
-        best = Path(request.out) / "best"
-        if (Path(request.out) / "summary.json").is_file() and (best / "config.json").is_file():
-            return best
-        return train_scratch_voxel(request, **request.overrides)
+    def _resolve(ref: str) -> Callable[..., Any]:
+        import importlib
+
+        module, func = ref.split(":")
+        return getattr(importlib.import_module(f"bimanualshift.methods.baselines.{module}"), func)
+
+    def train(request: TrainRequest) -> Path:
+        done = Path(request.out) / "done.json"
+        if done.is_file():  # trained by an earlier (interrupted) benchmark run
+            return Path(json.loads(done.read_text()))
+        checkpoint = _resolve(trainer)(request, **request.overrides)
+        from bimanualshift.utils.io import atomic_write_json
+
+        atomic_write_json(Path(request.out) / "done.json", str(checkpoint))
+        return checkpoint
 
     def load(checkpoint: Path | None, request: TrainRequest) -> Policy:
         from bimanualshift.encoders.text import default_text_encoder
-        from bimanualshift.methods.baselines.scratch_voxel import ScratchVoxelPolicy
-        from bimanualshift.priors.base import UnimanualPrior
 
-        return ScratchVoxelPolicy(UnimanualPrior.from_pretrained(checkpoint), default_text_encoder())
+        return _resolve(policy)(checkpoint, default_text_encoder())
 
-    return MethodSpec("scratch_voxel", "baseline: a PerAct2-style voxel policy for both arms trained from scratch on "
-                      "the bimanual demos (global scene, no prior, no residual)", train, load)
+    return MethodSpec(name, description, train, load)
 
 
-register_method(_scratch_voxel_method())
+register_method(_backbone_method(
+    "scratch_voxel", "baseline: a PerAct2-style voxel policy for both arms trained from scratch on the bimanual demos "
+    "(global scene, no prior, no residual)", "scratch_voxel:train_scratch_voxel", "scratch_voxel:ScratchVoxelPolicy"))
+register_method(_backbone_method(
+    "peract_lf", "baseline: PerAct-LF, leader (right) and follower (left) networks fine-tuned from the single-arm "
+    "prior on the bimanual demos; the follower conditions on the leader's action",
+    "leader_follower_tuned:train_leader_follower", "leader_follower_tuned:LeaderFollowerPolicy"))

@@ -1,0 +1,55 @@
+"""Running a PerAct-style voxel network for one arm on the global scene, with extra proprioception: the
+shared piece of the baselines that train or fine-tune a backbone on bimanual demos."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from bimanualshift.data.frames import KeyframeObservation
+from bimanualshift.encoders.text import TextEncoder
+from bimanualshift.geometry.frames import ArmFrame
+from bimanualshift.geometry.voxels import VoxelGrid
+from bimanualshift.methods.stages import world_action
+from bimanualshift.perception.observation import ArmObservation, ArmObservationBuilder, arm_frames
+from bimanualshift.priors.base import PriorOutput, UnimanualPrior
+from bimanualshift.training.bimanual_voxel import OWN_PROPRIO
+
+
+@dataclass
+class SceneView:
+    obs: KeyframeObservation
+    per_arm: dict[str, ArmObservation]
+    frames: dict[str, ArmFrame]
+    text: torch.Tensor
+
+
+class VoxelNetworkRunner:
+    def __init__(self, checkpoint: str | Path, text_encoder: TextEncoder, proprio_dim: int,
+                 max_keyframes: int = 25) -> None:
+        model = UnimanualPrior.from_pretrained(checkpoint)
+        if model.config.proprio_dim != proprio_dim:
+            raise ValueError(f"{checkpoint} reads {model.config.proprio_dim} proprio values; this policy gives "
+                             f"{proprio_dim}: was it trained for another baseline?")
+        self.model = model.freeze()
+        self.text_encoder = text_encoder
+        self.builder = ArmObservationBuilder(VoxelGrid(tuple(model.config.bounds), model.config.voxel_size))
+        self.max_keyframes = max_keyframes
+
+    def view(self, obs: KeyframeObservation) -> SceneView:
+        return SceneView(obs, self.builder.build(obs), arm_frames(obs),
+                         torch.as_tensor(self.text_encoder.encode([obs.instruction])))
+
+    def predict(self, view: SceneView, arm: str, extra: np.ndarray) -> PriorOutput:
+        own = np.r_[view.per_arm[arm].proprio, view.obs.keyframe_index / self.max_keyframes].astype(np.float32)
+        proprio = np.concatenate([own[:OWN_PROPRIO], np.asarray(extra, np.float32).ravel(), own[OWN_PROPRIO:]])
+        return self.model.predict(torch.as_tensor(view.per_arm[arm].voxels)[None].float(),
+                                  torch.as_tensor(proprio)[None], view.text)
+
+    def act(self, view: SceneView, arm: str, extra: np.ndarray) -> np.ndarray:
+        out = self.predict(view, arm, extra)
+        return world_action(view.frames[arm], out.position[0].numpy(), out.quat[0].numpy(),
+                            float(out.gripper_open[0]), float(out.ignore_collisions[0]))

@@ -1,0 +1,68 @@
+"""PerAct-LF: the leader's action in the follower's frame, a follower that starts as the prior, training, rollout."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from bimanualshift.configs import prior_model_config
+from bimanualshift.evaluation.rollout import rollout
+from bimanualshift.geometry.frames import ArmFrame
+from bimanualshift.methods.baselines.leader_follower_tuned import LeaderFollowerPolicy, leader_extras
+from bimanualshift.methods.registry import TrainRequest, get_method
+from bimanualshift.priors import PRIORS
+from bimanualshift.sim.env import ManipulationEnv
+from bimanualshift.training.bimanual_voxel import widen_from_prior
+from bimanualshift.training.samples import ArmSamples
+
+
+def test_follower_sees_the_leaders_action_in_its_own_frame() -> None:
+    n = 2
+    samples = ArmSamples(np.zeros((n, 4, 2, 2, 2), np.float16), np.zeros((n, 9), np.float32), ["x"] * n,
+                         np.array([[0.4, 0.0, 0.2], [0.5, 0.0, 0.1]]), np.tile([0.0, 0.0, 0.0, 1.0], (n, 1)),
+                         np.array([1, 0]), np.zeros(n, np.int64), np.zeros(n), np.zeros(n), ["left", "right"],
+                         np.zeros((n, 8), np.float32))
+    frames = [{"left": ArmFrame((0.0, 0.3, 0.0)), "right": ArmFrame((0.0, -0.3, 0.0))}]
+    extra = leader_extras(samples, frames)
+    # The right arm's target (0.5, 0, 0.1) in its frame is (0.5, -0.3, 0.1) in the world, (0.5, -0.6, 0.1) for left.
+    np.testing.assert_allclose(extra[0, :3], [0.5, -0.6, 0.1], atol=1e-6)
+    np.testing.assert_allclose(np.abs(extra[0, 3:7]), [0, 0, 0, 1], atol=1e-6)
+    assert extra[0, 7] == 0.0  # the leader's gripper is closed at that keyframe
+    np.testing.assert_array_equal(extra[1], np.zeros(8))  # the leader's own row carries nothing
+
+
+def test_widened_follower_starts_as_the_prior() -> None:
+    cls = PRIORS["peract"]
+    torch.manual_seed(0)
+    prior = cls(cls.config_class(**prior_model_config("peract", "debug")))
+    wide = cls(cls.config_class(**{**prior_model_config("peract", "debug"), "proprio_dim": 16}))
+    widen_from_prior(wide, prior, 8)
+    voxels, text = torch.rand(1, 4, 16, 16, 16), torch.randn(1, 384)
+    own = torch.rand(1, 9)
+    extra = torch.randn(1, 8)  # whatever the leader does, the untrained follower acts like the prior
+    a = prior.predict(voxels, own, text)
+    b = wide.predict(voxels, torch.cat([own[:, :8], extra, own[:, 8:]], dim=1), text)
+    torch.testing.assert_close(a.position, b.position)
+    torch.testing.assert_close(a.quat, b.quat)
+
+
+def test_pair_trains_from_the_prior_and_acts(demo_root: Path, tmp_path: Path) -> None:
+    from tests.training.test_train_resume import pretrain, pretrain_cfg
+
+    prior = pretrain(pretrain_cfg(demo_root, tmp_path / "prior", steps=2))
+    request = TrainRequest(task="push_two_buttons", data=str(demo_root / "bimanual"),
+                           validation_data=str(demo_root / "bimanual"), demos=2, prior=str(prior),
+                           out=str(tmp_path / "lf"), steps=2, overrides={"checkpoint_every": 2})
+    spec = get_method("peract_lf")
+    pair = spec.train(request)
+    assert spec.train(request) == pair  # a finished pair is not trained again
+    policy = spec.load(pair, request)
+    assert isinstance(policy, LeaderFollowerPolicy)
+    assert policy.follower.model.config.proprio_dim == 16 and policy.leader.model.config.proprio_dim == 8
+    env = ManipulationEnv("push_two_buttons", image_size=64)
+    try:
+        assert rollout(env, policy, seed=200_000, max_keyframes=1).keyframes == 1
+    finally:
+        env.close()
