@@ -140,3 +140,6 @@ register_method(_backbone_method(
     "peract_lf", "baseline: PerAct-LF, leader (right) and follower (left) networks fine-tuned from the single-arm "
     "prior on the bimanual demos; the follower conditions on the leader's action",
     "leader_follower_tuned:train_leader_follower", "leader_follower_tuned:LeaderFollowerPolicy"))
+register_method(_backbone_method(
+    "anybimanual", "baseline: AnyBimanual-style, the single-arm prior fine-tuned with learned soft voxel masks per arm "
+    "and skill-weighted language", "anybimanual:train_anybimanual", "anybimanual:AnyBimanualPolicy"))

@@ -45,6 +45,7 @@ class VoxelNetworkSpec:
     extra_proprio: ExtraProprio | None = None
     extra_poses: tuple[int, ...] = ()  # where poses (position, quaternion) start among the extras
     init_from_prior: bool = False  # start from the request's prior, or from random weights
+    build: Callable[[UnimanualPrior | None, int, str], UnimanualPrior] | None = None  # (prior, extra_dim, size)
 
 
 def with_extra_proprio(samples: ArmSamples, extra: np.ndarray) -> ArmSamples:
@@ -60,14 +61,29 @@ def select_arms(samples: ArmSamples, arms: tuple[str, ...]) -> ArmSamples:
 
 
 def widen_from_prior(model: UnimanualPrior, prior: UnimanualPrior, extra_dim: int) -> None:
-    """Copy the prior's weights; the wider proprioception layer gets zero weights for the extra columns."""
+    """Copy the prior's weights; the wider proprioception layer gets zero weights for the extra columns. Modules
+    ``model`` has beyond the prior's keep their own initialisation."""
     state = {k: v.clone() for k, v in prior.state_dict().items()}
     old = state["proprio_proj.weight"]  # (dim, OWN_PROPRIO + 1)
     new = torch.zeros(old.shape[0], old.shape[1] + extra_dim)
     new[:, :OWN_PROPRIO] = old[:, :OWN_PROPRIO]
     new[:, -1] = old[:, -1]  # the keyframe fraction
     state["proprio_proj.weight"] = new
-    model.load_state_dict(state)
+    unexpected = model.load_state_dict(state, strict=False).unexpected_keys
+    if unexpected:
+        raise ValueError(f"the prior has weights this network lacks: {unexpected}")
+
+
+def build_widened(prior: UnimanualPrior | None, extra_dim: int, size: str) -> UnimanualPrior:
+    """A PerAct-style network reading ``extra_dim`` more proprio values: the prior's architecture and weights
+    (widened), or a fresh network of the named size."""
+    overrides = {"proprio_dim": OWN_PROPRIO + extra_dim}
+    if prior is not None:
+        overrides = {**asdict(prior.config), **overrides}
+    model = build_prior(PretrainConfig(prior="peract", size=size, model=overrides))
+    if prior is not None:
+        widen_from_prior(model, prior, extra_dim)
+    return model
 
 
 def arm_frames_of(paths: list[Path]) -> list[dict[str, ArmFrame]]:
@@ -101,18 +117,13 @@ def train_voxel_network(spec: VoxelNetworkSpec, request: TrainRequest, out: Path
     prior = UnimanualPrior.from_pretrained(request.prior) if spec.init_from_prior else None
     if prior is not None and prior.config.type != "peract":
         raise ValueError(f"{spec.name} fine-tunes a PerAct-style prior; {request.prior} is a {prior.config.type}")
-    overrides = {"proprio_dim": OWN_PROPRIO + spec.extra_dim}
-    if prior is not None:  # the prior's architecture, widened where the extras come in
-        overrides = {**asdict(prior.config), **overrides}
-    model = build_prior(PretrainConfig(prior="peract", size=size, model=overrides))
+    model = (spec.build or build_widened)(prior, spec.extra_dim, size)
     grid = VoxelGrid(tuple(model.config.bounds), model.config.voxel_size)
     builder = ArmObservationBuilder(grid)  # the global scene: no arm-conditioned projection
     train = _batches(spec, paths, builder, grid, model.action_horizon, f"voxelise train ({spec.name})")
     val_paths = list_episodes(request.validation_data, request.task)
     val = _batches(spec, val_paths, builder, grid, model.action_horizon, "voxelise val") if val_paths else train
-    if prior is not None:
-        widen_from_prior(model, prior, spec.extra_dim)  # keeps the prior's normalisation too
-    else:
+    if prior is None:  # a fine-tuned prior keeps its own normalisation
         model.set_normalization(train.actions["position"].reshape(-1, 3))
     optimizer = make_lamb(model.parameters(), lr=lr)
     augmentation = Se3Augmentation(PretrainConfig.augment_translation_m, PretrainConfig.augment_yaw_deg)

@@ -31,11 +31,11 @@ def scratch_extras(other_proprio: np.ndarray, arm: list[str] | tuple[str, ...]) 
     return np.concatenate([other_proprio, onehot], axis=1).astype(np.float32)
 
 
-def _sample_extras(samples: ArmSamples, frames: list[dict[str, ArmFrame]]) -> np.ndarray:
+def sample_extras(samples: ArmSamples, frames: list[dict[str, ArmFrame]]) -> np.ndarray:
     return scratch_extras(samples.other_proprio, samples.arm)
 
 
-SPEC = VoxelNetworkSpec("scratch_voxel", arms=ARMS, extra_dim=EXTRA_PROPRIO, extra_proprio=_sample_extras,
+SPEC = VoxelNetworkSpec("scratch_voxel", arms=ARMS, extra_dim=EXTRA_PROPRIO, extra_proprio=sample_extras,
                         extra_poses=(0,))
 
 
