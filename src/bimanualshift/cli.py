@@ -296,6 +296,14 @@ def cmd_bench(args: argparse.Namespace) -> None:
     print(f"wrote {summary} (table.md, success.png, episodes.jsonl, videos/ beside it)")
 
 
+def cmd_study(args: argparse.Namespace) -> None:
+    from bimanualshift.evaluation.bench import BenchConfig
+    from bimanualshift.evaluation.studies import run_study
+
+    overrides = {f.name: getattr(args, f.name) for f in fields(BenchConfig) if getattr(args, f.name, None) is not None}
+    print(f"wrote {run_study(args.name, overrides, args.results)}")
+
+
 def cmd_eval(args: argparse.Namespace) -> None:
     from bimanualshift.data.seeds import split_seeds
     from bimanualshift.encoders.text import default_text_encoder
@@ -434,6 +442,13 @@ def build_parser() -> argparse.ArgumentParser:
 
     _add_config_command(sub, "bench", "methods x bimanual tasks on fixed seeds: train, evaluate in parallel, "
                                       "table, plot, videos (resumable)", BenchConfig, cmd_bench)
+
+    p = sub.add_parser("study", help="one of the paper's studies (table1, few_shot, generalisation, backbones) as "
+                                     "benchmark runs, combined into results/<study>/")
+    p.add_argument("name", choices=["table1", "few_shot", "generalisation", "backbones"])
+    p.add_argument("--results", default="results", help="where results/<study>/ goes (default: results)")
+    _add_config_overrides(p, BenchConfig, skip=("out", "runs"))
+    p.set_defaults(func=cmd_study)
 
     p = sub.add_parser("eval", help="evaluate a method on held-out seeds")
     p.add_argument("--method", default="bimanualshift",

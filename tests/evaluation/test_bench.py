@@ -54,3 +54,13 @@ def test_bench_runs_resumes_and_reports(demo_root: Path, tmp_path: Path) -> None
     assert (out / "success.png").stat().st_size > 0 and (out / "table.md").read_text().startswith("| method |")
     assert sorted(p.name for p in (out / "videos").iterdir()) == [
         "push_two_buttons_bimanualshift_200000.mp4", "push_two_buttons_no_residual_200000.mp4"]
+
+
+def test_rows_under_perturbations_report_relative_degradation() -> None:
+    episodes = ([{"task": "a", "method": "m", "perturbation": "none", "seed": s, "success": s < 4} for s in range(4)]
+                + [{"task": "a", "method": "m", "perturbation": "glare", "seed": s, "success": s < 1}
+                   for s in range(4)])
+    rows = bench_rows(episodes, ["m"], ["a"], demos=5, perturbations=["none", "glare"])
+    assert [(r["perturbation"], r["success"]) for r in rows] == [("none", 1.0), ("glare", 0.25)]
+    assert rows[1]["degradation"] == 0.75 and "degradation" not in rows[0]
+    assert "| m (glare) | 25 (" in bench_table(rows)

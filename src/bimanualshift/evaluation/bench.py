@@ -47,6 +47,7 @@ class BenchConfig:
     out: str = "results/bench"
     videos: int = 1  # test episodes recorded per task and method
     max_keyframes: int = 0  # a hard cap on episode length on top of the expert-relative budget (0: none)
+    perturbations: list[str] = field(default_factory=lambda: ["none"])  # test-time presets (sim/perturbations.py)
     seed: int = 0
 
 
@@ -59,6 +60,7 @@ class BenchJob:
     request: dict[str, Any]
     video: str = ""  # write this episode's front-camera video here
     max_keyframes: int = 0
+    perturbation: str = "none"
 
 
 _CACHE: dict[Any, Any] = {}
@@ -79,9 +81,12 @@ def run_bench_episode(job: BenchJob) -> dict[str, Any]:
     from bimanualshift.sim.env import ManipulationEnv
 
     torch.set_num_threads(1)  # one process per core
-    if ("env", job.task) not in _CACHE:
-        _CACHE[("env", job.task)] = ManipulationEnv(job.task)
-    env = _CACHE[("env", job.task)]
+    from bimanualshift.sim.perturbations import preset
+
+    env_key = ("env", job.task, job.perturbation)
+    if env_key not in _CACHE:
+        _CACHE[env_key] = ManipulationEnv(job.task, perturbations=preset(job.perturbation))
+    env = _CACHE[env_key]
     key = ("policy", job.method, job.task, job.checkpoint)
     if key not in _CACHE:
         request = TrainRequest(**job.request)
@@ -92,8 +97,8 @@ def run_bench_episode(job: BenchJob) -> dict[str, Any]:
     record = rollout(env, _CACHE[key], job.seed, budget, record_camera="front" if job.video else None)
     if job.video:
         write_video(job.video, record.frames)
-    return {"task": job.task, "method": job.method, "seed": job.seed, "success": record.success,
-            "keyframes": record.keyframes, "budget": budget}
+    return {"task": job.task, "method": job.method, "perturbation": job.perturbation, "seed": job.seed,
+            "success": record.success, "keyframes": record.keyframes, "budget": budget}
 
 
 def read_episodes(path: Path) -> list[dict[str, Any]]:
@@ -121,35 +126,59 @@ def append_episode(path: Path, episode: dict[str, Any]) -> None:
         os.fsync(f.fileno())
 
 
-def bench_rows(episodes: list[dict[str, Any]], methods: list[str], tasks: list[str], demos: int
-               ) -> list[dict[str, Any]]:
-    """Success per (task, method) with Wilson 95 % intervals, then each method's average over the tasks."""
+def _key(e: dict[str, Any]) -> tuple[str, str, str, int]:
+    return e["task"], e["method"], e.get("perturbation", "none"), e["seed"]
+
+
+def bench_rows(episodes: list[dict[str, Any]], methods: list[str], tasks: list[str], demos: int,
+               perturbations: list[str] = ("none",)) -> list[dict[str, Any]]:
+    """Success per (task, method[, perturbation]) with Wilson 95 % intervals, then each method's average over
+    the tasks. Under a perturbation, ``degradation`` is the relative drop from the unperturbed success."""
     rows = []
-    for method in methods:
-        rates = []
-        for task in tasks:
-            mine = [e for e in episodes if e["method"] == method and e["task"] == task]
-            if not mine:
-                continue
-            k = sum(e["success"] for e in mine)
-            lo, hi = wilson_interval(k, len(mine))
-            rates.append((k, len(mine)))
-            rows.append({"task": task, "method": method, "demos": demos, "success": round(k / len(mine), 4),
-                         "episodes": len(mine), "ci95": [round(lo, 4), round(hi, 4)]})
-        if len(rates) > 1:
-            k, n = sum(r[0] for r in rates), sum(r[1] for r in rates)
-            lo, hi = wilson_interval(k, n)
-            rows.append({"task": "average", "method": method, "demos": demos,
-                         "success": round(float(np.mean([a / b for a, b in rates])), 4), "episodes": n,
-                         "ci95": [round(lo, 4), round(hi, 4)]})
+    for perturbation in perturbations:
+        for method in methods:
+            mine_rows, rates = [], []
+            for task in tasks:
+                mine = [e for e in episodes if e["method"] == method and e["task"] == task
+                        and e.get("perturbation", "none") == perturbation]
+                if not mine:
+                    continue
+                k = sum(e["success"] for e in mine)
+                lo, hi = wilson_interval(k, len(mine))
+                rates.append((k, len(mine)))
+                mine_rows.append({"task": task, "method": method, "demos": demos,
+                                  "success": round(k / len(mine), 4), "episodes": len(mine),
+                                  "ci95": [round(lo, 4), round(hi, 4)]})
+            if len(rates) > 1:
+                k, n = sum(r[0] for r in rates), sum(r[1] for r in rates)
+                lo, hi = wilson_interval(k, n)
+                mine_rows.append({"task": "average", "method": method, "demos": demos,
+                                  "success": round(float(np.mean([a / b for a, b in rates])), 4), "episodes": n,
+                                  "ci95": [round(lo, 4), round(hi, 4)]})
+            if list(perturbations) != ["none"]:
+                for r in mine_rows:
+                    r["perturbation"] = perturbation
+            rows += mine_rows
+    if list(perturbations) != ["none"]:
+        clean = {(r["task"], r["method"]): r["success"] for r in rows if r["perturbation"] == "none"}
+        for r in rows:
+            base = clean.get((r["task"], r["method"]))
+            if r["perturbation"] != "none" and base:
+                r["degradation"] = round((base - r["success"]) / base, 4)
     return rows
 
 
+def row_label(row: dict[str, Any]) -> str:
+    """The method, the study run it belongs to and the perturbation it was tested under, where there are some."""
+    return (row["method"] + (f" [{row['run']}]" if "run" in row else "")
+            + (f" ({row['perturbation']})" if "perturbation" in row else ""))
+
+
 def bench_table(rows: list[dict[str, Any]]) -> str:
-    """Table I's layout: one row per method, one column per task, then the average."""
+    """Table I's layout: one row per method (and perturbation), one column per task, then the average."""
     tasks = list(dict.fromkeys(r["task"] for r in rows))
-    methods = list(dict.fromkeys(r["method"] for r in rows))
-    cell = {(r["method"], r["task"]): r for r in rows}
+    methods = list(dict.fromkeys(row_label(r) for r in rows))
+    cell = {(row_label(r), r["task"]): r for r in rows}
     lines = ["| method | " + " | ".join(t.replace("_", " ") for t in tasks) + " |", "|---|" + "---|" * len(tasks)]
     for method in methods:
         cells = []
@@ -170,8 +199,8 @@ def bar_plot(path: Path, rows: list[dict[str, Any]], title: str) -> Path:
     from bimanualshift.utils.io import atomic_writer
 
     tasks = list(dict.fromkeys(r["task"] for r in rows))
-    methods = list(dict.fromkeys(r["method"] for r in rows))
-    cell = {(r["method"], r["task"]): r for r in rows}
+    methods = list(dict.fromkeys(row_label(r) for r in rows))
+    cell = {(row_label(r), r["task"]): r for r in rows}
     width = 0.8 / len(methods)
     fig, ax = plt.subplots(figsize=(max(6.0, 1.6 * len(tasks)), 3.8))
     for i, method in enumerate(methods):
@@ -217,28 +246,34 @@ def run_bench(cfg: BenchConfig, command: str | None = None) -> Path:
              "test": split_seeds("test", cfg.episodes)}
 
     jobs = []
+    from bimanualshift.sim.perturbations import preset
+
+    for name in cfg.perturbations:
+        preset(name)  # an unknown preset fails before any work
     for task in tasks:
         collect([task], seeds["train"], f"{cfg.data}/train", workers=cfg.workers)
         collect([task], seeds["validation"], f"{cfg.data}/validation", workers=cfg.workers)
         for method in cfg.methods:
             request = _request(cfg, task, method)
             checkpoint = get_method(method).train(request)
-            for i, seed in enumerate(seeds["test"]):
-                video = str(out / "videos" / f"{task}_{method}_{seed}.mp4") if i < cfg.videos else ""
-                jobs.append(BenchJob(method, task, seed, str(checkpoint or ""), asdict(request), video,
-                                     cfg.max_keyframes))
+            for perturbation in cfg.perturbations:
+                for i, seed in enumerate(seeds["test"]):
+                    suffix = "" if perturbation == "none" else f"_{perturbation}"
+                    video = str(out / "videos" / f"{task}_{method}{suffix}_{seed}.mp4") if i < cfg.videos else ""
+                    jobs.append(BenchJob(method, task, seed, str(checkpoint or ""), asdict(request), video,
+                                         cfg.max_keyframes, perturbation))
 
     log = out / "episodes.jsonl"
-    done = {(e["task"], e["method"], e["seed"]) for e in read_episodes(log)}
-    todo = [j for j in jobs if (j.task, j.method, j.seed) not in done]
+    done = {_key(e) for e in read_episodes(log)}
+    todo = [j for j in jobs if (j.task, j.method, j.perturbation, j.seed) not in done]
     if done:
         print(f"[bench] resuming: {len(done)} episodes already recorded, {len(todo)} to go")
     run_jobs(run_bench_episode, todo, cfg.workers, desc="bench episodes", chunksize=1,
              on_result=lambda episode: append_episode(log, episode))
 
-    wanted = {(j.task, j.method, j.seed) for j in jobs}
-    episodes = [e for e in read_episodes(log) if (e["task"], e["method"], e["seed"]) in wanted]
-    rows = bench_rows(episodes, cfg.methods, tasks, cfg.demos)
+    wanted = {(j.task, j.method, j.perturbation, j.seed) for j in jobs}
+    episodes = [e for e in read_episodes(log) if _key(e) in wanted]
+    rows = bench_rows(episodes, cfg.methods, tasks, cfg.demos, cfg.perturbations)
     print_success_table(rows, f"bench: {cfg.demos} demos, {cfg.episodes} test episodes per task")
     title = f"{cfg.demos} demos, {cfg.episodes} test episodes per task (95 % Wilson intervals)"
     bar_plot(out / "success.png", rows, title)

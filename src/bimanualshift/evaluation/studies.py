@@ -1,0 +1,78 @@
+"""The paper's studies as named lists of benchmark runs (`bimanualshift study NAME`).
+
+Each study is one or more ``BenchConfig``s run in order (each resumable on its own) and then combined into
+``results/<study>/summary.json`` (rows labelled by the run they came from), a table and a plot. Flags given to
+`study` override every run of the study (e.g. ``--episodes 20 --workers 2`` for a quicker pass; the result file
+records the overrides in its command).
+"""
+
+from __future__ import annotations
+
+import json
+import shlex
+import sys
+import time
+from dataclasses import asdict, replace
+from pathlib import Path
+from typing import Any
+
+from bimanualshift.evaluation.bench import BenchConfig, bar_plot, bench_table, run_bench
+from bimanualshift.utils.io import atomic_write_text
+
+BASELINES = ["bimanualshift", "peract_lf", "scratch_voxel", "anybimanual"]
+ABLATIONS = ["no_projection", "no_residual", "no_retrieval", "unstructured"]
+FEW_SHOT_TASKS = ["push_two_buttons", "lift_ball", "pick_up_plate"]
+
+
+def study_runs(name: str, root: str = "results") -> list[tuple[str, BenchConfig]]:
+    """(label, config) of every benchmark run of a study."""
+    out = f"{root}/{name}"
+    if name == "table1":  # Table I: the complex tasks at 30 demos, the simpler ones at 100
+        methods = BASELINES + ABLATIONS
+        return [
+            ("30 demos", BenchConfig(tasks=["take_tray_out_of_oven", "straighten_rope", "sweep_to_dustpan"],
+                                     demos=30, methods=methods, out=f"{out}/demos_30", runs="runs/table1")),
+            ("100 demos", BenchConfig(tasks=["lift_ball", "push_two_buttons", "pick_up_plate"], demos=100,
+                                      methods=methods, out=f"{out}/demos_100", runs="runs/table1")),
+        ]
+    if name == "few_shot":  # Fig. 11a: 5 / 15 / 30 demos
+        return [(f"{n} demos", BenchConfig(tasks=FEW_SHOT_TASKS, demos=n, methods=["bimanualshift", "peract_lf"],
+                                           out=f"{out}/demos_{n}", runs=f"runs/few_shot_{n}"))
+                for n in (5, 15, 30)]
+    if name == "generalisation":  # Table III: the seven perturbations on one task (overall success)
+        from bimanualshift.sim.perturbations import PRESETS
+
+        return [("perturbations", BenchConfig(tasks=["take_tray_out_of_oven"], demos=30,
+                                              methods=["bimanualshift", "peract_lf"],
+                                              perturbations=list(PRESETS), out=f"{out}/perturbations",
+                                              runs="runs/generalisation"))]
+    if name == "backbones":  # Table II: the method over each shipped prior
+        return [(f"prior {prior}", BenchConfig(tasks=["bimanual"], demos=30, methods=["bimanualshift"], prior=prior,
+                                               out=f"{out}/{prior}", runs=f"runs/backbones_{prior}"))
+                for prior in ("peract_suite", "dp_suite")]
+    raise ValueError(f"unknown study {name!r}; choose from {STUDIES}")
+
+
+STUDIES = ("table1", "few_shot", "generalisation", "backbones")
+
+
+def run_study(name: str, overrides: dict[str, Any] | None = None, root: str = "results") -> Path:
+    from bimanualshift.evaluation.report import write_result
+
+    started = time.time()
+    command = " ".join(["bimanualshift study", *(shlex.quote(a) for a in sys.argv[2:])])
+    rows, seeds, configs = [], {}, []
+    for label, cfg in study_runs(name, root):
+        cfg = replace(cfg, **(overrides or {}))
+        summary = run_bench(cfg, command=f"{command}  # run: {label}")
+        result = json.loads(summary.read_text())
+        seeds = {**seeds, **{f"{label} {k}": v for k, v in result["seeds"].items()}}
+        rows += [{**r, "run": label} for r in result["rows"]]
+        configs.append({"run": label, **asdict(cfg)})
+    out = Path(root) / name
+    out.mkdir(parents=True, exist_ok=True)
+    atomic_write_text(out / "table.md", bench_table(rows))
+    bar_plot(out / "success.png", rows, f"study {name}")
+    return write_result(out / "summary.json", command, seeds, started, rows, bench=True, study=name, runs=configs,
+                        notes="rows carry the run they come from; each run's own folder has its episodes and "
+                              "videos; wall time covers this invocation only")

@@ -1,0 +1,39 @@
+"""The studies are named lists of benchmark runs with disjoint run folders."""
+
+from __future__ import annotations
+
+import pytest
+
+from bimanualshift.evaluation.bench import bench_table
+from bimanualshift.evaluation.studies import STUDIES, study_runs
+from bimanualshift.methods.registry import METHODS
+from bimanualshift.sim.perturbations import PRESETS
+from bimanualshift.sim.task import resolve_task_names
+
+
+@pytest.mark.parametrize("name", STUDIES)
+def test_every_study_names_known_tasks_methods_and_separate_folders(name: str) -> None:
+    runs = study_runs(name, root="/tmp/r")
+    assert runs and len({cfg.out for _, cfg in runs}) == len(runs)
+    assert len({(cfg.runs, cfg.demos, cfg.prior) for _, cfg in runs}) == len(runs)  # no run reuses another's models
+    for _, cfg in runs:
+        assert set(cfg.methods) <= set(METHODS)
+        resolve_task_names(cfg.tasks)
+        assert set(cfg.perturbations) <= set(PRESETS)
+
+
+def test_few_shot_and_table1_follow_the_paper() -> None:
+    assert [cfg.demos for _, cfg in study_runs("few_shot")] == [5, 15, 30]
+    table1 = dict(study_runs("table1"))
+    assert table1["30 demos"].tasks == ["take_tray_out_of_oven", "straighten_rope", "sweep_to_dustpan"]
+    assert table1["100 demos"].demos == 100
+    assert len(study_runs("generalisation")[0][1].perturbations) == len(PRESETS)
+    with pytest.raises(ValueError, match="unknown study"):
+        study_runs("ablations")
+
+
+def test_combined_table_keeps_runs_apart() -> None:
+    rows = [{"task": "a", "method": "m", "run": run, "success": s, "ci95": [0.0, 1.0]}
+            for run, s in (("5 demos", 0.2), ("30 demos", 0.6))]
+    table = bench_table(rows)
+    assert "| m [5 demos] | 20 (" in table and "| m [30 demos] | 60 (" in table
