@@ -304,6 +304,12 @@ def cmd_study(args: argparse.Namespace) -> None:
     print(f"wrote {run_study(args.name, overrides, args.results)}")
 
 
+def cmd_ship_prior(args: argparse.Namespace) -> None:
+    from bimanualshift.priors.shipping import ship_prior
+
+    print(f"shipped {ship_prior(args.source, args.name)}")
+
+
 def cmd_eval(args: argparse.Namespace) -> None:
     from bimanualshift.data.seeds import split_seeds
     from bimanualshift.encoders.text import default_text_encoder
@@ -442,6 +448,12 @@ def build_parser() -> argparse.ArgumentParser:
 
     _add_config_command(sub, "bench", "methods x bimanual tasks on fixed seeds: train, evaluate in parallel, "
                                       "table, plot, videos (resumable)", BenchConfig, cmd_bench)
+
+    p = sub.add_parser("ship-prior", help="copy a pretrained prior (a run's best/) into checkpoints/NAME/ with its "
+                                          "model card (<= 25 MB)")
+    p.add_argument("source", help="the best/ folder of a `pretrain` run")
+    p.add_argument("name", help="the name it loads by, e.g. peract_suite")
+    p.set_defaults(func=cmd_ship_prior)
 
     p = sub.add_parser("study", help="one of the paper's studies (table1, few_shot, generalisation, backbones) as "
                                      "benchmark runs, combined into results/<study>/")
