@@ -352,6 +352,10 @@ def cmd_demo(args: argparse.Namespace) -> None:
 def cmd_report(args: argparse.Namespace) -> None:
     from bimanualshift.evaluation.markdown import render_readme
 
+    if args.index:
+        from bimanualshift.evaluation.markdown import render_index
+
+        print(f"wrote {render_index(args.results)}")
     for readme in args.readme:
         names = render_readme(readme, args.results)
         print(f"{readme}: regenerated {', '.join(names) if names else 'no results blocks'}")
@@ -483,6 +487,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("report", help="regenerate the README tables from the result files")
     p.add_argument("--readme", nargs="+", default=["README.md"], help="files with results blocks")
     p.add_argument("--results", default="results", help="results directory (default: results)")
+    p.add_argument("--index", action="store_true", help="also write results/README.md: every result file's table")
     p.set_defaults(func=cmd_report)
     return parser
 

@@ -83,3 +83,18 @@ def test_priors_table_has_one_column_per_prior() -> None:
     assert lines[2] == "| push_button | 80 % (70–85) | 70 % (60–75) |"
     assert "| parameters | 1,234,567 | 1,234,567 |" in lines and "| training time | 30 min | 30 min |" in lines
     assert "50 test episodes per task" in table
+
+
+def test_index_lists_every_result_file_including_study_runs(tmp_path: Path) -> None:
+    from bimanualshift.evaluation.markdown import render_index
+
+    envelope = {"command": "c", "commit": "abcdef1234567", "created": "t", "machine": "m", "seeds": {"test": [1]},
+                "wall_time_s": 60.0, "notes": "n"}
+    (tmp_path / "few_shot" / "demos_5").mkdir(parents=True)
+    (tmp_path / "speed.json").write_text(json.dumps({**envelope, "rows": [{"what": "x", "value": 1.5}]}))
+    (tmp_path / "few_shot" / "demos_5" / "summary.json").write_text(json.dumps(
+        {**envelope, "bench": True, "rows": [{"task": "a", "method": "m", "success": 0.5, "ci95": [0.1, 0.9]}]}))
+    index = render_index(tmp_path).read_text()
+    assert "## few_shot/demos_5" in index and "## speed" in index
+    assert "| m | 50 (10–90) |" in index and "| x | 1.500 |" in index
+    assert render_readme(tmp_path / "README.md", tmp_path) == ["few_shot/demos_5", "speed"]  # blocks stay live
