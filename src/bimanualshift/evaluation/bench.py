@@ -275,9 +275,10 @@ def run_bench(cfg: BenchConfig, command: str | None = None) -> Path:
     episodes = [e for e in read_episodes(log) if _key(e) in wanted]
     rows = bench_rows(episodes, cfg.methods, tasks, cfg.demos, cfg.perturbations)
     print_success_table(rows, f"bench: {cfg.demos} demos, {cfg.episodes} test episodes per task")
-    title = f"{cfg.demos} demos, {cfg.episodes} test episodes per task (95 % Wilson intervals)"
-    bar_plot(out / "success.png", rows, title)
-    atomic_write_text(out / "table.md", bench_table(rows))
+    if rows:  # (none when only training was asked for: --episodes 0)
+        title = f"{cfg.demos} demos, {cfg.episodes} test episodes per task (95 % Wilson intervals)"
+        bar_plot(out / "success.png", rows, title)
+        atomic_write_text(out / "table.md", bench_table(rows))
     write_result(out / "summary.json", command, seeds, started, rows, bench=True, config=asdict(cfg),
                  methods={m: METHODS[m].description for m in cfg.methods},
                  notes=f"prior {cfg.prior}; episodes stop at {KEYFRAME_BUDGET}x the expert's keyframes on the "
