@@ -1,6 +1,6 @@
 """What the residual branch and retrieval cost on top of the frozen prior (writes results/core_overhead.json).
 
-    .venv/bin/python benchmarks/core_overhead.py --prior peract_unimanual --task push_two_buttons \
+    .venv/bin/python benchmarks/core_overhead.py --prior peract_suite --task push_two_buttons \
         [--train-data data/bimanual --train-steps 1500]
 
 * per-keyframe inference of the full method (projection, frozen prior per arm, retrieval, Manager, Z, G)
@@ -59,7 +59,7 @@ def random_bank(entries: int, dim: int, rng: np.random.Generator, index: str = "
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--prior", default="peract_unimanual")
+    parser.add_argument("--prior", default="peract_suite")
     parser.add_argument("--task", default="push_two_buttons")
     parser.add_argument("--repeats", type=int, default=20)
     parser.add_argument("--train-data", default="", help="bimanual demos for the training-time measurement")

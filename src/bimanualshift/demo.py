@@ -28,7 +28,7 @@ from bimanualshift.sim.env import ManipulationEnv
 from bimanualshift.training.pretrain import PretrainConfig, pretrain
 from bimanualshift.training.residual import TrainConfig, train_residual
 
-SHIPPED_PRIOR = Path(__file__).resolve().parents[2] / "checkpoints" / "peract_unimanual"
+SHIPPED_PRIOR = Path(__file__).resolve().parents[2] / "checkpoints" / "peract_suite"
 
 
 @dataclass

@@ -12,7 +12,7 @@ residual Manager consumes. Any single-arm policy can serve BimanualShift by subc
   ``set_normalization(positions)`` (statistics kept as buffers, saved with the weights).
 
 Checkpoints are ``model.safetensors`` + ``config.json``; the config's ``type`` picks the class, and a shipped
-checkpoint can be loaded by its name (``UnimanualPrior.from_pretrained("peract_unimanual")``).
+checkpoint can be loaded by its name (``UnimanualPrior.from_pretrained("peract_suite")``).
 """
 
 from __future__ import annotations

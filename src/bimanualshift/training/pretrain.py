@@ -128,17 +128,24 @@ def translation_accuracy(model: UnimanualPrior, batches: PriorBatches, tolerance
     return float(np.mean(hits))
 
 
+def seeds_tried(paths: list[Path]) -> int:
+    """How many seeds per task a collection tried: one past the highest seed offset on disk (collection keeps
+    successes only, so counting files would under-count)."""
+    offsets = [int(p.stem.split("_")[-1]) % 100_000 for p in paths]
+    return max(offsets) + 1 if offsets else 0
+
+
 def model_card(cfg: PretrainConfig, kind: str, step: int, accuracy: float, train_episodes: int, val_episodes: int,
-               wall_time_s: float, parameters: int) -> str:
+               wall_time_s: float, parameters: int, train_seeds: int = 0, val_seeds: int = 0) -> str:
     overrides = f" --model '{json.dumps(cfg.model)}'" if cfg.model else ""
     names = resolve_task_names(cfg.tasks)
     tasks = " ".join(names)
     augmentation = (f"SE(3): yaw up to {cfg.augment_yaw_deg} deg, horizontal shift up to "
                     f"{100 * cfg.augment_translation_m:.0f} cm")
     reproduce = "\n".join([
-        f"bimanualshift collect --task {tasks} --episodes {train_episodes // len(names)} "
+        f"bimanualshift collect --task {tasks} --episodes {train_seeds or train_episodes // len(names)} "
         f"--out {cfg.data} --workers 2",
-        f"bimanualshift collect --task {tasks} --episodes {val_episodes // len(names)} "
+        f"bimanualshift collect --task {tasks} --episodes {val_seeds or val_episodes // len(names)} "
         f"--split validation --out {cfg.validation_data} --workers 2",
         f"bimanualshift pretrain --prior {cfg.prior} --size {cfg.size} --tasks {tasks} --data {cfg.data} "
         f"--validation-data {cfg.validation_data} --steps {cfg.steps} --batch-size {cfg.batch_size} "
@@ -155,8 +162,8 @@ A frozen unimanual prior for BimanualShift: {what}. Trained on **single-arm demo
 | | |
 |---|---|
 | training tasks | {", ".join(names)} |
-| training episodes | {train_episodes} (scripted expert, train seeds from 0) |
-| validation episodes | {val_episodes} (validation seeds from 100000; used to pick this checkpoint) |
+| training episodes | {train_episodes} successful expert episodes (train seeds from 0, {train_seeds} tried per task) |
+| validation episodes | {val_episodes} (validation seeds from 100000, {val_seeds} tried per task; picks it) |
 | chosen step | {step} of {cfg.steps} (batch {cfg.batch_size}, {cfg.optimizer} lr {cfg.lr}, {augmentation}) |
 | parameters | {parameters:,} |
 | validation keyframes within 3 cm | {100 * accuracy:.1f} % |
@@ -218,7 +225,7 @@ def pretrain(cfg: PretrainConfig) -> Path:
         })
         atomic_write_text(out / "best" / "README.md", model_card(
             cfg, kind, step, -value, len(paths), len(val_paths), elapsed_s,
-            sum(p.numel() for p in model.parameters())))
+            sum(p.numel() for p in model.parameters()), seeds_tried(paths), seeds_tried(val_paths)))
 
     result = run_training(out, model, optimizer, cfg.steps, step_fn, cfg.seed, cfg.checkpoint_every,
                           validate, on_best, desc=f"pretrain {kind}")

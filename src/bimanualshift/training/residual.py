@@ -37,7 +37,7 @@ ARM_ORDER = ("left", "right")  # the Manager's arm one-hot; single-arm data coun
 @dataclass
 class TrainConfig:
     task: str = "push_two_buttons"
-    prior: str = "checkpoints/peract_unimanual"
+    prior: str = "peract_suite"  # a shipped name or a checkpoint folder
     data: str = "data/bimanual"
     validation_data: str = "data/bimanual_val"
     out: str = "runs/bimanualshift"
