@@ -246,8 +246,12 @@ def cmd_prior_report(args: argparse.Namespace) -> None:
     tasks = _resolve_tasks(args.task)
     started = time.time()
     seeds = split_seeds("test", args.episodes)
-    episodes = evaluate_priors(args.prior, tasks, seeds, workers=args.workers)
+    log = args.log or (str(Path(args.out).with_suffix(".episodes.jsonl")) if args.out else None)
+    deadline = started + 60 * args.minutes if args.minutes else None
+    episodes = evaluate_priors(args.prior, tasks, seeds, workers=args.workers, log=log, deadline=deadline)
     rows = prior_rows(args.prior, episodes, tasks, seeds[0])
+    counts = sorted({t["episodes"] for r in rows for t in r["tasks"].values()})
+    interim = counts != [args.episodes]
     table = Table(title=f"single-arm priors ({args.episodes} test seeds per task)")
     table.add_column("task")
     for row in rows:
@@ -261,10 +265,14 @@ def cmd_prior_report(args: argparse.Namespace) -> None:
     table.add_row("ms per arm", *[f"{r['inference_ms_per_arm']}" for r in rows])
     Console().print(table)
     if args.out:
+        notes = ("each prior drives the single arm alone (no projection, no residual); a rollout stops at twice the "
+                 "expert's keyframe count on the same seed; inference is the median of 20 predict calls for one arm "
+                 "with 2 torch threads")
+        if interim:
+            notes = (f"INTERIM: stopped by --minutes with {counts[0]}-{counts[-1]} of {args.episodes} test seeds per "
+                     f"task done (per-episode log {log}); the same command without --minutes finishes it. " + notes)
         write_result(args.out, "bimanualshift " + " ".join(sys.argv[1:]), {"test": seeds}, started, rows,
-                     notes="each prior drives the single arm alone (no projection, no residual); a rollout stops "
-                           "at twice the expert's keyframe count on the same seed; inference is the median of 20 "
-                           "predict calls for one arm with 2 torch threads")
+                     notes=notes, episode_log=log)
         print(f"wrote {args.out}")
 
 
@@ -440,6 +448,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--episodes", type=int, default=50, help="test seeds per task (default: 50)")
     p.add_argument("--workers", type=int, default=1, help="parallel worker processes (default: 1)")
     p.add_argument("--out", help="write a result JSON here (e.g. results/priors.json)")
+    p.add_argument("--log", help="per-episode log a stopped report resumes from (default: OUT with .episodes.jsonl)")
+    p.add_argument("--minutes", type=float, default=0.0,
+                   help="stop after this long and write an interim result (resume later with the same command)")
     p.set_defaults(func=cmd_prior_report)
 
     _add_config_command(sub, "pretrain", "pretrain a single-arm prior on single-arm demos only", PretrainConfig,

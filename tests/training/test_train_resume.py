@@ -164,3 +164,24 @@ def test_residual_with_a_clip_text_encoder_trains_and_reloads(demo_root: Path, t
         assert rollout(env, policy, seed=200_000, max_keyframes=1).keyframes == 1
     finally:
         env.close()
+
+
+def test_prior_report_resumes_from_its_episode_log(tiny_prior: Path, tmp_path: Path) -> None:
+    import json
+    import time
+
+    from bimanualshift.evaluation.priors import evaluate_priors
+
+    log = tmp_path / "episodes.jsonl"
+    seeds = [200_000, 200_001]
+    first = evaluate_priors([str(tiny_prior)], ["push_button"], seeds, log=log)
+    lines = log.read_text().splitlines()
+    assert len(lines) == 2
+    log.write_text(lines[0] + "\n" + lines[1][:10])  # killed while writing the second record
+    again = evaluate_priors([str(tiny_prior)], ["push_button"], seeds, log=log)
+    assert again == first and len(log.read_text().splitlines()) == 3  # the cut line stays, ignored
+    # Past its deadline a report runs nothing more and returns what the log holds.
+    (tmp_path / "b.jsonl").write_text(json.dumps(vars(first[0]) if hasattr(first[0], "__dict__") else {}) + "\n")
+    partial = evaluate_priors([str(tiny_prior)], ["push_button"], seeds, log=tmp_path / "b.jsonl",
+                              deadline=time.time() - 1)
+    assert partial == first[:1]

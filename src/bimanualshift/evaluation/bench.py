@@ -9,8 +9,6 @@ Table-I-style markdown table, a bar plot and a few rollout videos are written at
 
 from __future__ import annotations
 
-import json
-import os
 import shlex
 import sys
 import time
@@ -24,6 +22,7 @@ from bimanualshift.data.seeds import split_seeds
 from bimanualshift.evaluation.stats import wilson_interval
 from bimanualshift.methods.registry import METHODS, TrainRequest, get_method
 from bimanualshift.utils.io import atomic_write_text
+from bimanualshift.utils.jsonl import append_record, read_records
 from bimanualshift.utils.workers import run_jobs
 
 KEYFRAME_BUDGET = 2  # an episode stops at this multiple of the expert's keyframe count on the same seed
@@ -101,29 +100,8 @@ def run_bench_episode(job: BenchJob) -> dict[str, Any]:
             "success": record.success, "keyframes": record.keyframes, "budget": budget}
 
 
-def read_episodes(path: Path) -> list[dict[str, Any]]:
-    """Finished episodes of an earlier run; a line cut short by a kill is ignored (that episode is re-run)."""
-    if not path.is_file():
-        return []
-    episodes = []
-    for line in path.read_text().splitlines():
-        try:
-            episodes.append(json.loads(line))
-        except json.JSONDecodeError:
-            continue
-    return episodes
-
-
-def append_episode(path: Path, episode: dict[str, Any]) -> None:
-    with path.open("a+b") as f:
-        f.seek(0, os.SEEK_END)
-        if f.tell() > 0:
-            f.seek(-1, os.SEEK_END)
-            if f.read(1) != b"\n":  # a line cut short by a kill: start a fresh one
-                f.write(b"\n")
-        f.write((json.dumps(episode) + "\n").encode())
-        f.flush()
-        os.fsync(f.fileno())
+read_episodes = read_records  # one finished episode per line
+append_episode = append_record
 
 
 def _key(e: dict[str, Any]) -> tuple[str, str, str, int]:

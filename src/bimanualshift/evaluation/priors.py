@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import json
 import time
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
@@ -13,6 +13,7 @@ import numpy as np
 import torch
 
 from bimanualshift.evaluation.stats import wilson_interval
+from bimanualshift.utils.jsonl import append_record, read_records
 from bimanualshift.utils.workers import run_jobs
 
 # Rollouts of a prior stop at this multiple of the expert's keyframe count on the same seed.
@@ -61,9 +62,26 @@ def run_prior_episode(job: tuple[str, str, int]) -> PriorEpisode:
     return PriorEpisode(prior, task, seed, record.success, record.keyframes)
 
 
-def evaluate_priors(priors: list[str], tasks: list[str], seeds: list[int], workers: int = 1) -> list[PriorEpisode]:
-    jobs = [(p, t, s) for p in priors for t in tasks for s in seeds]
-    results = run_jobs(run_prior_episode, jobs, workers, desc="prior episodes", chunksize=4)
+def evaluate_priors(priors: list[str], tasks: list[str], seeds: list[int], workers: int = 1,
+                    log: str | Path | None = None, deadline: float | None = None) -> list[PriorEpisode]:
+    """Every (prior, task, seed) episode; with ``log`` each finished one is appended there at once and episodes
+    already logged are not run again, so a stopped report resumes. Jobs go seed by seed over every task and prior,
+    so a report stopped at ``deadline`` covers the same seeds for all of them."""
+    done = {}
+    if log is not None:
+        for r in read_records(log):
+            episode = PriorEpisode(**r)
+            done[(episode.prior, episode.task, episode.seed)] = episode
+    jobs = [(p, t, s) for s in seeds for t in tasks for p in priors if (p, t, s) not in done]
+
+    def record(episode: PriorEpisode) -> None:
+        if log is not None:
+            append_record(log, asdict(episode))
+
+    results = run_jobs(run_prior_episode, jobs, workers, desc="prior episodes", chunksize=2, on_result=record,
+                       deadline=deadline)
+    wanted = {(p, t, s) for s in seeds for t in tasks for p in priors}
+    results += [e for k, e in done.items() if k in wanted]
     return sorted(results, key=lambda e: (e.prior, e.task, e.seed))
 
 
@@ -102,6 +120,8 @@ def prior_rows(priors: list[str], episodes: list[PriorEpisode], tasks: list[str]
         per_task = {}
         for task in tasks:
             mine = [e for e in episodes if e.prior == prior and e.task == task]
+            if not mine:
+                raise ValueError(f"no finished episode of {prior} on {task} yet: let the report run longer")
             k = sum(e.success for e in mine)
             lo, hi = wilson_interval(k, len(mine))
             per_task[task] = {"success": round(k / len(mine), 4), "ci95": [round(lo, 4), round(hi, 4)],
