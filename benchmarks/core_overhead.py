@@ -13,6 +13,7 @@
 from __future__ import annotations
 
 import argparse
+import shlex
 import tempfile
 import time
 
@@ -46,6 +47,19 @@ def median_ms(fn, repeats: int) -> float:  # noqa: ANN001 - any callable
     return float(np.median(times))
 
 
+def interleaved_medians(fns: list, repeats: int) -> list[float]:  # noqa: ANN001 - any callables
+    """Median ms of each callable, timed in alternation so that a change in machine load hits all of them alike."""
+    for fn in fns:
+        fn()
+    times: list[list[float]] = [[] for _ in fns]
+    for _ in range(repeats):
+        for fn, out in zip(fns, times):
+            t0 = time.perf_counter()
+            fn()
+            out.append(1000 * (time.perf_counter() - t0))
+    return [float(np.median(t)) for t in times]
+
+
 def random_bank(entries: int, dim: int, rng: np.random.Generator, index: str = "flat") -> MemoryBank:
     bank = MemoryBank(dim, threshold=0.5, index=index)
     keys = rng.normal(size=(entries, dim)).astype(np.float32)
@@ -65,6 +79,7 @@ def main() -> None:
     parser.add_argument("--train-data", default="", help="bimanual demos for the training-time measurement")
     parser.add_argument("--train-steps", type=int, default=1500)
     parser.add_argument("--out", default="results/core_overhead.json")
+    parser.add_argument("--note", default="", help="a remark recorded in the result file (e.g. machine load)")
     args = parser.parse_args()
     torch.set_num_threads(2)
     started = time.time()
@@ -89,10 +104,10 @@ def main() -> None:
         full.reset()  # retrieval included in every timed call
         full.act(frame)
 
+    alone_ms, full_ms = interleaved_medians([lambda: alone.act(frame), full_step], args.repeats)
     rows = [
-        {"what": "frozen prior alone, both arms (ms per keyframe)", "value": round(median_ms(lambda: alone.act(frame),
-                                                                                            args.repeats), 2)},
-        {"what": "full method, both arms (ms per keyframe)", "value": round(median_ms(full_step, args.repeats), 2)},
+        {"what": "frozen prior alone, both arms (ms per keyframe)", "value": round(alone_ms, 2)},
+        {"what": "full method, both arms (ms per keyframe)", "value": round(full_ms, 2)},
     ]
     rows.append({"what": "full / prior alone", "value": round(rows[1]["value"] / rows[0]["value"], 3),
                  "target": "<= 1.15"})
@@ -132,9 +147,11 @@ def main() -> None:
     for r in rows:
         print(f"{r['what']:52s} {r['value']}")
     command = (f"python benchmarks/core_overhead.py --prior {args.prior} --task {args.task} --repeats {args.repeats}"
-               + (f" --train-data {args.train_data} --train-steps {args.train_steps}" if args.train_data else ""))
+               + (f" --train-data {args.train_data} --train-steps {args.train_steps}" if args.train_data else "")
+               + (f" --note {shlex.quote(args.note)}" if args.note else ""))
     write_result(args.out, command, seeds, started, rows,
-                 notes="one process, 2 torch threads; inference on the first observation of one test seed, "
+                 notes=f"{args.note + '; ' if args.note else ''}one process, 2 torch threads; the two inference "
+                       "timings alternate call by call; inference on the first observation of one test seed, "
                        "retrieval included in every full-method call; untrained residual (its cost does not depend "
                        "on its weights)")
     print(f"wrote {args.out}")
