@@ -470,9 +470,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("name", help="the name it loads by, e.g. peract_suite")
     p.set_defaults(func=cmd_ship_prior)
 
-    p = sub.add_parser("study", help="one of the paper's studies (table1, few_shot, generalisation, backbones) as "
-                                     "benchmark runs, combined into results/<study>/")
-    p.add_argument("name", choices=["table1", "few_shot", "generalisation", "backbones"])
+    from bimanualshift.evaluation.studies import STUDIES
+
+    p = sub.add_parser("study", help=f"one of the paper's studies ({', '.join(STUDIES)}) as benchmark runs, "
+                                     "combined into results/<study>/")
+    p.add_argument("name", choices=STUDIES)
     p.add_argument("--results", default="results", help="where results/<study>/ goes (default: results)")
     _add_config_overrides(p, BenchConfig, skip=("out", "runs"))
     p.set_defaults(func=cmd_study)

@@ -22,6 +22,19 @@ def test_rows_average_tasks_and_pool_intervals() -> None:
     assert table.splitlines()[0] == "| method | a | b | average |" and "| m | 75 (" in table
 
 
+def test_multi_stage_tasks_report_stage_wise_success() -> None:
+    from bimanualshift.evaluation.bench import stage_table
+
+    episodes = [{"task": "take_tray_out_of_oven", "method": "m", "seed": s, "success": done == 2, "stages_done": done}
+                for s, done in enumerate([0, 1, 1, 2])]
+    (row,) = bench_rows(episodes, ["m"], ["take_tray_out_of_oven"], demos=5)
+    assert [(s["stage"], s["success"]) for s in row["stages"]] == [("door open", 0.75), ("tray out", 0.25)]
+    assert row["stages"][0]["ci95"] == [round(x, 4) for x in wilson_interval(3, 4)]
+    assert "| m | 75 | 25 |" in stage_table([row])
+    (plain,) = bench_rows([{"task": "lift_ball", "method": "m", "seed": 0, "success": True}], ["m"], ["lift_ball"], 5)
+    assert "stages" not in plain and stage_table([plain]) == ""
+
+
 def test_registry_names_every_ablation_and_refuses_unknown_methods() -> None:
     assert {"bimanualshift", "no_projection", "no_residual", "no_retrieval", "unstructured"} <= set(METHODS)
     with pytest.raises(ValueError, match="unknown method 'act'"):

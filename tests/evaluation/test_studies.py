@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import pytest
 
 from bimanualshift.evaluation.bench import bench_table
@@ -37,3 +39,24 @@ def test_combined_table_keeps_runs_apart() -> None:
             for run, s in (("5 demos", 0.2), ("30 demos", 0.6))]
     table = bench_table(rows)
     assert "| m [5 demos] | 20 (" in table and "| m [30 demos] | 60 (" in table
+
+
+def test_long_horizon_continues_each_task_from_the_one_before(tmp_path: object) -> None:
+    from pathlib import Path
+
+    from bimanualshift.evaluation.bench import _request
+
+    runs = [cfg for _, cfg in study_runs("long_horizon")]
+    assert [cfg.tasks for cfg in runs] == [["push_two_buttons"], ["lift_ball"], ["buttons_then_lift_ball"]]
+    assert runs[1].continue_from == f"{runs[0].runs}/push_two_buttons"
+    assert runs[2].continue_from == f"{runs[1].runs}/lift_ball" and runs[2].demos == 5
+    assert set(runs[2].methods) == {"bimanualshift", "no_retrieval", "peract_lf"}
+    # Each continual method starts from its own earlier run; one that is missing is a clear error.
+    earlier = Path(str(tmp_path)) / "runs" / "lift_ball"
+    (earlier / "bimanualshift").mkdir(parents=True)
+    cfg = replace(runs[2], continue_from=str(earlier))
+    assert _request(cfg, "buttons_then_lift_ball", "bimanualshift").overrides == {
+        "init_from": str(earlier / "bimanualshift")}
+    assert _request(cfg, "buttons_then_lift_ball", "no_residual").overrides == {}  # trains nothing
+    with pytest.raises(FileNotFoundError, match="peract_lf has no earlier run"):
+        _request(cfg, "buttons_then_lift_ball", "peract_lf")

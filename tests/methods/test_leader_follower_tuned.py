@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import pytest
 import torch
 
 from bimanualshift.configs import prior_model_config
@@ -66,3 +67,30 @@ def test_pair_trains_from_the_prior_and_acts(demo_root: Path, tmp_path: Path) ->
         assert rollout(env, policy, seed=200_000, max_keyframes=1).keyframes == 1
     finally:
         env.close()
+
+
+def test_continual_pair_starts_from_the_earlier_pair(demo_root: Path, tmp_path: Path) -> None:
+    import json
+
+    from bimanualshift.priors.base import UnimanualPrior
+    from tests.training.test_train_resume import pretrain, pretrain_cfg
+
+    prior = pretrain(pretrain_cfg(demo_root, tmp_path / "prior", steps=2))
+
+    def request(out: str, **overrides: object) -> TrainRequest:
+        return TrainRequest(task="push_two_buttons", data=str(demo_root / "bimanual"),
+                            validation_data=str(demo_root / "bimanual"), demos=2, prior=str(prior),
+                            out=str(tmp_path / out), steps=2, overrides={"checkpoint_every": 2, **overrides})
+
+    spec = get_method("peract_lf")
+    assert spec.continual
+    first = spec.train(request("first", lr=5e-2))
+    # A negligible lr (LAMB refuses 0): each network hands on the weights it started from.
+    second = spec.train(request("second", lr=1e-12, init_from=str(first)))
+    pairs = [json.loads((p / "pair.json").read_text()) for p in (first, second)]
+    for role in ("leader", "follower"):
+        a, b = (UnimanualPrior.from_pretrained(p[role]).state_dict() for p in pairs)
+        for k in a:
+            torch.testing.assert_close(a[k], b[k], atol=1e-6, rtol=0, msg=f"{role} {k}")
+    with pytest.raises(FileNotFoundError, match="no leader-follower pair"):
+        spec.train(request("third", init_from=str(tmp_path / "nowhere")))

@@ -9,7 +9,7 @@ import pytest
 
 from bimanualshift.perception.goal_nouns import extract_goal_nouns
 from bimanualshift.sim.env import InvalidActionError, ManipulationEnv
-from bimanualshift.sim.task import TASKS, register_task, task_names
+from bimanualshift.sim.task import TASKS, SimHandle, Task, register_task, task_names
 
 ALL_TASKS = task_names()
 
@@ -23,7 +23,7 @@ def env(request: pytest.FixtureRequest) -> Iterator[ManipulationEnv]:
 
 def test_registry_has_bimanual_and_single_arm_tasks() -> None:
     assert set(task_names(bimanual=True)) == {"lift_ball", "push_two_buttons", "pick_up_plate", "take_tray_out_of_oven",
-                                              "straighten_rope", "sweep_to_dustpan"}
+                                              "straighten_rope", "sweep_to_dustpan", "buttons_then_lift_ball"}
     assert len(task_names(bimanual=False)) >= 8
     with pytest.raises(ValueError, match="registered twice"):
         register_task("push_button")(TASKS["push_button"])
@@ -89,6 +89,60 @@ def test_expert_succeeds(env: ManipulationEnv, seed: int) -> None:
     for keyframe in env.expert_keyframes():
         env.step(env.action_from_keyframe(keyframe), render=False)
     assert env.success(), f"{env.task.name} expert failed on seed {seed}"
+
+
+@pytest.mark.slow
+def test_expert_reaches_every_stage_in_order(env: ManipulationEnv) -> None:
+    """Stage-wise success: the count of stages done never falls and the expert ends with all of them."""
+    if not env.task.stage_names:
+        pytest.skip("a single-stage task: its success is its only stage")
+    env.reset(seed=11, options={"render": False})
+    done = []
+    for keyframe in env.expert_keyframes():
+        done.append(env.step(env.action_from_keyframe(keyframe), render=False)[4]["stages_done"])
+    assert done == sorted(done) and done[-1] == len(env.task.stage_names)
+    assert done[0] < done[-1]  # the stages are reached one after another, not all at the end
+
+
+class ScriptedStages(Task):
+    """A task whose stage checks follow a script, to test the latching on its own."""
+
+    name = "scripted"
+    bimanual = True
+    stage_names = ("a", "b", "c")
+
+    def __init__(self, script: list[list[bool]]) -> None:
+        super().__init__()
+        self.script = iter(script)
+
+    def scene_xml(self) -> str:
+        return ""
+
+    def initialize_episode(self, sim: SimHandle, rng: np.random.Generator) -> None:
+        self.episode = {}
+
+    def instruction(self) -> str:
+        return "do it"
+
+    def expert_keyframes(self, sim: SimHandle) -> list:
+        return []
+
+    def evaluate_success(self, sim: SimHandle) -> bool:
+        return False
+
+    def evaluate_stages(self, sim: SimHandle) -> list[bool]:
+        return next(self.script)
+
+
+def test_stages_latch_in_order_and_success_completes_them() -> None:
+    task = ScriptedStages([[False, True, False], [True, False, False], [False, True, False], [False, False, False],
+                           [False, False, False]])
+    # b before a does not count; a then b counts; a stage once reached stays reached.
+    assert [task.update_stages(None, False) for _ in range(4)] == [0, 1, 2, 2]  # type: ignore[arg-type]
+    assert task.update_stages(None, True) == 3  # type: ignore[arg-type]
+    bad = ScriptedStages([[True]])
+    with pytest.raises(ValueError, match="returned 1 values for 3 stages"):
+        bad.update_stages(None, False)  # type: ignore[arg-type]
 
 
 def test_goal_nouns_cover_the_instructions_object(env: ManipulationEnv) -> None:

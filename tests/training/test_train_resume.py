@@ -138,6 +138,35 @@ def test_retrieval_trains_saves_its_frozen_memory_and_acts(demo_root: Path, tiny
     assert policy.retrieval is None
 
 
+def test_continual_run_starts_from_the_earlier_run_and_keeps_its_memory(demo_root: Path, tiny_prior: Path,
+                                                                         tmp_path: Path) -> None:
+    from safetensors.torch import load_file
+
+    from bimanualshift.memory.bank import MemoryBank
+    from bimanualshift.methods.bimanualshift import MEMORY_FILE
+
+    def cfg(out: str, **kw: object) -> TrainConfig:
+        return TrainConfig(prior=str(tiny_prior), data=str(demo_root / "bimanual"),
+                           validation_data=str(demo_root / "bimanual"), out=str(tmp_path / out), steps=2,
+                           checkpoint_every=2, demos=2, retrieval=True, retrieval_threshold=-1.0, **kw)
+
+    first = train_residual(cfg("first", lr=5e-2))
+    # A negligible lr (LAMB refuses 0): the continued run hands on the weights it started from.
+    second = train_residual(cfg("second", lr=1e-12, init_from=str(tmp_path / "first"), seed=1))
+    a, b = load_file(str(first / "model.safetensors")), load_file(str(second / "model.safetensors"))
+    assert a.keys() == b.keys()
+    for k in a:
+        torch.testing.assert_close(a[k], b[k], atol=1e-6, rtol=0)
+    fresh = load_file(str(train_residual(cfg("fresh", lr=1e-12, seed=1)) / "model.safetensors"))
+    assert not all(torch.allclose(a[k], fresh[k], atol=1e-6) for k in a)  # without init_from it starts elsewhere
+    bank = MemoryBank.load(second / MEMORY_FILE)
+    assert len(bank) == 4  # this task's two demos first, then the earlier run's entries
+    with pytest.raises(ValueError, match="residual config"):
+        train_residual(cfg("mismatch", init_from=str(first), structured=False))
+    with pytest.raises(FileNotFoundError, match="no BimanualShift checkpoint"):
+        train_residual(cfg("missing", init_from=str(tmp_path / "nowhere")))
+
+
 def test_without_residual_ablation_keeps_the_projection(tiny_prior: Path) -> None:
     from bimanualshift.methods.leader_follower import FrozenPriorPerArm
 

@@ -47,6 +47,9 @@ class BenchConfig:
     videos: int = 1  # test episodes recorded per task and method
     max_keyframes: int = 0  # a hard cap on episode length on top of the expert-relative budget (0: none)
     perturbations: list[str] = field(default_factory=lambda: ["none"])  # test-time presets (sim/perturbations.py)
+    # Continual learning: a runs folder of one earlier task (runs/<bench>/<task>); every method that supports it
+    # starts from its own run there (its weights and, for BimanualShift, its memory bank).
+    continue_from: str = ""
     seed: int = 0
 
 
@@ -66,9 +69,17 @@ _CACHE: dict[Any, Any] = {}
 
 
 def _request(cfg: BenchConfig, task: str, method: str) -> TrainRequest:
+    overrides = {}
+    if cfg.continue_from and get_method(method).continual:
+        earlier = Path(cfg.continue_from) / method
+        if not earlier.is_dir():
+            raise FileNotFoundError(f"continue_from={cfg.continue_from!r}: {method} has no earlier run at {earlier}; "
+                                    "run the benchmark on the earlier task first")
+        overrides["init_from"] = str(earlier)
     return TrainRequest(task=task, data=f"{cfg.data}/train", validation_data=f"{cfg.data}/validation",
                         demos=cfg.demos, prior=cfg.prior, out=f"{cfg.runs}/{task}/{method}",
-                        steps=int(cfg.method_steps.get(method, cfg.residual_steps)), seed=cfg.seed)
+                        steps=int(cfg.method_steps.get(method, cfg.residual_steps)), seed=cfg.seed,
+                        overrides=overrides)
 
 
 def run_bench_episode(job: BenchJob) -> dict[str, Any]:
@@ -97,7 +108,8 @@ def run_bench_episode(job: BenchJob) -> dict[str, Any]:
     if job.video:
         write_video(job.video, record.frames)
     return {"task": job.task, "method": job.method, "perturbation": job.perturbation, "seed": job.seed,
-            "success": record.success, "keyframes": record.keyframes, "budget": budget}
+            "success": record.success, "keyframes": record.keyframes, "budget": budget,
+            "stages_done": record.stages_done}
 
 
 read_episodes = read_records  # one finished episode per line
@@ -126,7 +138,7 @@ def bench_rows(episodes: list[dict[str, Any]], methods: list[str], tasks: list[s
                 rates.append((k, len(mine)))
                 mine_rows.append({"task": task, "method": method, "demos": demos,
                                   "success": round(k / len(mine), 4), "episodes": len(mine),
-                                  "ci95": [round(lo, 4), round(hi, 4)]})
+                                  "ci95": [round(lo, 4), round(hi, 4)], **stage_success(task, mine)})
             if len(rates) > 1:
                 k, n = sum(r[0] for r in rates), sum(r[1] for r in rates)
                 lo, hi = wilson_interval(k, n)
@@ -144,6 +156,42 @@ def bench_rows(episodes: list[dict[str, Any]], methods: list[str], tasks: list[s
             if r["perturbation"] != "none" and base:
                 r["degradation"] = round((base - r["success"]) / base, 4)
     return rows
+
+
+def stage_success(task: str, episodes: list[dict[str, Any]]) -> dict[str, Any]:
+    """For a multi-stage task, the share of episodes that reached each stage (in order), with Wilson 95 %
+    intervals: ``{"stages": [{"stage", "success", "ci95"}, ...]}``; nothing for a single-stage task."""
+    from bimanualshift.sim import tasks  # noqa: F401 - importing registers every task
+    from bimanualshift.sim.task import TASKS
+
+    names = TASKS[task].stage_names if task in TASKS else ()
+    if not names:
+        return {}
+    out = []
+    for i, name in enumerate(names):
+        k = sum(int(e.get("stages_done", 0)) > i for e in episodes)
+        lo, hi = wilson_interval(k, len(episodes))
+        out.append({"stage": name, "success": round(k / len(episodes), 4), "ci95": [round(lo, 4), round(hi, 4)]})
+    return {"stages": out}
+
+
+def stage_table(rows: list[dict[str, Any]]) -> str:
+    """Stage-wise success (Table III / Fig. 11b layout): one row per method and task, one column per stage."""
+    staged = [r for r in rows if r.get("stages")]
+    if not staged:
+        return ""
+    lines = []
+    for task in dict.fromkeys(r["task"] for r in staged):
+        mine = [r for r in staged if r["task"] == task]
+        names = [s["stage"] for s in mine[0]["stages"]]
+        lines += [f"**{task.replace('_', ' ')}: stage-wise success (%)**", "",
+                  "| method | " + " | ".join(names) + " |", "|---|" + "---|" * len(names)]
+        for r in mine:
+            extra = f" ({100 * r['degradation']:.0f} % degradation)" if "degradation" in r else ""
+            lines.append(f"| {row_label(r)}{extra} | " + " | ".join(f"{100 * s['success']:.0f}" for s in r["stages"])
+                         + " |")
+        lines.append("")
+    return "\n".join(lines)
 
 
 def row_label(row: dict[str, Any]) -> str:
@@ -256,7 +304,7 @@ def run_bench(cfg: BenchConfig, command: str | None = None) -> Path:
     if rows:  # (none when only training was asked for: --episodes 0)
         title = f"{cfg.demos} demos, {cfg.episodes} test episodes per task (95 % Wilson intervals)"
         bar_plot(out / "success.png", rows, title)
-        atomic_write_text(out / "table.md", bench_table(rows))
+        atomic_write_text(out / "table.md", bench_table(rows) + "\n" + stage_table(rows))
     write_result(out / "summary.json", command, seeds, started, rows, bench=True, config=asdict(cfg),
                  methods={m: METHODS[m].description for m in cfg.methods},
                  notes=f"prior {cfg.prior}; episodes stop at {KEYFRAME_BUDGET}x the expert's keyframes on the "

@@ -29,6 +29,7 @@ class EpisodeRecord:
     keyframes: int
     instruction: str
     frames: list[np.ndarray] = field(default_factory=list, repr=False)
+    stages_done: int = 0  # leading stages of a multi-stage task reached (``Task.stage_names``)
 
 
 def rollout(env: ManipulationEnv, policy: Policy, seed: int, max_keyframes: int, record_camera: str | None = None
@@ -37,16 +38,17 @@ def rollout(env: ManipulationEnv, policy: Policy, seed: int, max_keyframes: int,
     scene = scene_of_env(env)
     policy.reset()
     frames = [obs["cameras"][record_camera]["rgb"]] if record_camera else []
-    success = False
+    success, stages_done = False, 0
     for _ in range(max_keyframes):
         action = policy.act(KeyframeObservation.from_env(obs, scene))
-        obs, _, success, truncated, _ = env.step(action)
+        obs, _, success, truncated, info = env.step(action)
+        stages_done = int(info["stages_done"])
         if record_camera:
             frames.append(obs["cameras"][record_camera]["rgb"])
         if success or truncated:
             break
     return EpisodeRecord(policy.name, env.task.name, seed, bool(success), env.keyframe_index,
-                         env.task.instruction(), frames)
+                         env.task.instruction(), frames, stages_done)
 
 
 def evaluate(env: ManipulationEnv, policy: Policy, seeds: list[int], max_keyframes: int,

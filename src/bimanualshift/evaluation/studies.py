@@ -16,7 +16,7 @@ from dataclasses import asdict, replace
 from pathlib import Path
 from typing import Any
 
-from bimanualshift.evaluation.bench import BenchConfig, bar_plot, bench_table, run_bench
+from bimanualshift.evaluation.bench import BenchConfig, bar_plot, bench_table, run_bench, stage_table
 from bimanualshift.utils.io import atomic_write_text
 
 BASELINES = ["bimanualshift", "peract_lf", "scratch_voxel", "anybimanual"]
@@ -46,6 +46,18 @@ def study_runs(name: str, root: str = "results") -> list[tuple[str, BenchConfig]
                                               methods=["bimanualshift", "peract_lf"],
                                               perturbations=list(PRESETS), out=f"{out}/perturbations",
                                               runs="runs/generalisation"))]
+    if name == "long_horizon":  # Fig. 11b: two tasks learnt in turn, then a four-stage composite from 5 demos
+        methods = ["bimanualshift", "no_retrieval", "peract_lf"]
+        runs = "runs/long_horizon"
+        return [
+            ("task 1", BenchConfig(tasks=["push_two_buttons"], demos=30, methods=methods, episodes=20,
+                                   out=f"{out}/task1", runs=f"{runs}/task1")),
+            ("task 2", BenchConfig(tasks=["lift_ball"], demos=30, methods=methods, episodes=20, out=f"{out}/task2",
+                                   runs=f"{runs}/task2", continue_from=f"{runs}/task1/push_two_buttons")),
+            ("composite", BenchConfig(tasks=["buttons_then_lift_ball"], demos=5, methods=methods,
+                                      out=f"{out}/composite", runs=f"{runs}/composite",
+                                      continue_from=f"{runs}/task2/lift_ball")),
+        ]
     if name == "backbones":  # Table II: the method over each shipped prior
         return [(f"prior {prior}", BenchConfig(tasks=["bimanual"], demos=30, methods=["bimanualshift"], prior=prior,
                                                out=f"{out}/{prior}", runs=f"runs/backbones_{prior}"))
@@ -53,7 +65,7 @@ def study_runs(name: str, root: str = "results") -> list[tuple[str, BenchConfig]
     raise ValueError(f"unknown study {name!r}; choose from {STUDIES}")
 
 
-STUDIES = ("table1", "few_shot", "generalisation", "backbones")
+STUDIES = ("table1", "few_shot", "generalisation", "long_horizon", "backbones")
 
 
 def run_study(name: str, overrides: dict[str, Any] | None = None, root: str = "results") -> Path:
@@ -71,7 +83,7 @@ def run_study(name: str, overrides: dict[str, Any] | None = None, root: str = "r
         configs.append({"run": label, **asdict(cfg)})
     out = Path(root) / name
     out.mkdir(parents=True, exist_ok=True)
-    atomic_write_text(out / "table.md", bench_table(rows))
+    atomic_write_text(out / "table.md", bench_table(rows) + "\n" + stage_table(rows))
     bar_plot(out / "success.png", rows, f"study {name}")
     return write_result(out / "summary.json", command, seeds, started, rows, bench=True, study=name, runs=configs,
                         notes="rows carry the run they come from; each run's own folder has its episodes and "

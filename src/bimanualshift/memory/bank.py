@@ -116,6 +116,12 @@ class MemoryBank:
             return Retrieval(best, self.entries[best], float(score), self.trajectories[best])
         return None
 
+    def extend(self, other: MemoryBank) -> MemoryBank:
+        """Append every entry of ``other`` (e.g. an earlier task's bank, so its executions stay retrievable)."""
+        for key, trajectory, entry in zip(other.keys(), other.trajectories, other.entries):
+            self.add(key, trajectory, entry)
+        return self
+
     def keys(self) -> np.ndarray:
         return self.index.reconstruct_n(0, len(self)) if len(self) else np.zeros((0, self.dim), np.float32)
 

@@ -36,6 +36,9 @@ class MethodSpec:
     description: str
     train: Callable[[TrainRequest], Path | None]  # the checkpoint to evaluate; None when nothing is trained
     load: Callable[[Path | None, TrainRequest], Policy]
+    # Continual learning: the method can start from its own earlier run on another task (the request's
+    # ``overrides["init_from"]`` names that run's folder).
+    continual: bool = False
 
 
 METHODS: dict[str, MethodSpec] = {}
@@ -75,7 +78,7 @@ def _residual_method(name: str, description: str, **switches: Any) -> MethodSpec
         policy.name = name
         return policy
 
-    return MethodSpec(name, description, train, load)
+    return MethodSpec(name, description, train, load, continual=True)
 
 
 def _frozen_prior_method(name: str, description: str, use_projection: bool) -> MethodSpec:
@@ -105,7 +108,7 @@ register_method(_frozen_prior_method(
 
 
 
-def _backbone_method(name: str, description: str, trainer: str, policy: str) -> MethodSpec:
+def _backbone_method(name: str, description: str, trainer: str, policy: str, continual: bool = False) -> MethodSpec:
     """A baseline that trains or fine-tunes a voxel backbone; ``trainer`` / ``policy`` name functions in
     ``bimanualshift.methods.baselines.<module>`` as "module:function"."""
 
@@ -130,7 +133,7 @@ def _backbone_method(name: str, description: str, trainer: str, policy: str) -> 
 
         return _resolve(policy)(checkpoint, default_text_encoder())
 
-    return MethodSpec(name, description, train, load)
+    return MethodSpec(name, description, train, load, continual)
 
 
 register_method(_backbone_method(
@@ -139,7 +142,7 @@ register_method(_backbone_method(
 register_method(_backbone_method(
     "peract_lf", "baseline: PerAct-LF, leader (right) and follower (left) networks fine-tuned from the single-arm "
     "prior on the bimanual demos; the follower conditions on the leader's action",
-    "leader_follower_tuned:train_leader_follower", "leader_follower_tuned:LeaderFollowerPolicy"))
+    "leader_follower_tuned:train_leader_follower", "leader_follower_tuned:LeaderFollowerPolicy", continual=True))
 register_method(_backbone_method(
     "anybimanual", "baseline: AnyBimanual-style, the single-arm prior fine-tuned with learned soft voxel masks per arm "
     "and skill-weighted language", "anybimanual:train_anybimanual", "anybimanual:AnyBimanualPolicy"))

@@ -97,8 +97,10 @@ class ManipulationEnv(gym.Env):
         self.execute(targets)
         self.keyframe_index += 1
         success = self.task.evaluate_success(self.sim)
+        stages = self.task.update_stages(self.sim, success)
         truncated = self.keyframe_index >= self.task.max_keyframes
-        return self.observe(render=render), float(success), success, truncated, {"success": success}
+        return (self.observe(render=render), float(success), success, truncated,
+                {"success": success, "stages_done": stages})
 
     def expert_keyframes(self) -> list[Keyframe]:
         return self.task.expert_keyframes(self.sim)

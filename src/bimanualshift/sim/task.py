@@ -176,6 +176,31 @@ class Task(ABC):
     @abstractmethod
     def evaluate_success(self, sim: SimHandle) -> bool: ...
 
+    # A multi-stage task names its stages in order and judges each in ``evaluate_stages`` (stage-wise success,
+    # as the paper's generalisation and long-horizon studies report it). The last stage is the task's success.
+    stage_names: ClassVar[tuple[str, ...]] = ()
+
+    def evaluate_stages(self, sim: SimHandle) -> list[bool]:
+        """Whether each stage's goal holds now (one bool per ``stage_names`` entry)."""
+        return []
+
+    def update_stages(self, sim: SimHandle, success: bool) -> int:
+        """Latch the stages reached so far (in ``self.episode``, so they are part of the env state) and return
+        how many leading stages are done: a stage counts once it and every stage before it has been reached."""
+        if not self.stage_names:
+            return int(success)
+        now = self.evaluate_stages(sim)
+        if len(now) != len(self.stage_names):
+            raise ValueError(f"{self.name}.evaluate_stages returned {len(now)} values for "
+                             f"{len(self.stage_names)} stages {self.stage_names}")
+        done = int(self.episode.get("stages_done", 0))
+        while done < len(now) and now[done]:
+            done += 1
+        if success:
+            done = len(self.stage_names)
+        self.episode["stages_done"] = done
+        return done
+
     def after_compile(self, model: mujoco.MjModel) -> None:  # noqa: B027 - optional hook
         """Adjust the compiled model once (e.g. make generated geoms visible to the cameras)."""
 

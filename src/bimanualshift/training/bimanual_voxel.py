@@ -64,11 +64,13 @@ def widen_from_prior(model: UnimanualPrior, prior: UnimanualPrior, extra_dim: in
     """Copy the prior's weights; the wider proprioception layer gets zero weights for the extra columns. Modules
     ``model`` has beyond the prior's keep their own initialisation."""
     state = {k: v.clone() for k, v in prior.state_dict().items()}
-    old = state["proprio_proj.weight"]  # (dim, OWN_PROPRIO + 1)
-    new = torch.zeros(old.shape[0], old.shape[1] + extra_dim)
-    new[:, :OWN_PROPRIO] = old[:, :OWN_PROPRIO]
-    new[:, -1] = old[:, -1]  # the keyframe fraction
-    state["proprio_proj.weight"] = new
+    old = state["proprio_proj.weight"]  # (dim, OWN_PROPRIO [+ extras] + 1)
+    width = model.state_dict()["proprio_proj.weight"].shape[1]
+    if old.shape[1] != width:  # a single-arm prior: widen; an earlier network of this kind already fits
+        new = torch.zeros(old.shape[0], width)
+        new[:, :OWN_PROPRIO] = old[:, :OWN_PROPRIO]
+        new[:, -1] = old[:, -1]  # the keyframe fraction
+        state["proprio_proj.weight"] = new
     unexpected = model.load_state_dict(state, strict=False).unexpected_keys
     if unexpected:
         raise ValueError(f"the prior has weights this network lacks: {unexpected}")
@@ -80,6 +82,10 @@ def build_widened(prior: UnimanualPrior | None, extra_dim: int, size: str) -> Un
     overrides = {"proprio_dim": OWN_PROPRIO + extra_dim}
     if prior is not None:
         overrides = {**asdict(prior.config), **overrides}
+        prior_extra = prior.config.proprio_dim - OWN_PROPRIO
+        if prior_extra not in (0, extra_dim):
+            raise ValueError(f"cannot start a network reading {extra_dim} extra proprio values from one reading "
+                             f"{prior_extra}")
     model = build_prior(PretrainConfig(prior="peract", size=size, model=overrides))
     if prior is not None:
         widen_from_prior(model, prior, extra_dim)

@@ -55,6 +55,9 @@ class TrainConfig:
     retrieval: bool = False  # the memory bank's temporal reference as a Manager input (Eq. 8-9)
     retrieval_threshold: float = 0.5  # cosine similarity below which no reference is used
     text_encoder: str = "minilm"  # the residual's instruction / skill-verb encoder: minilm | clip | clip:<dir>
+    # Continual learning: an earlier BimanualShift run (or its checkpoint) whose Manager, Z and G start this run
+    # and whose memory bank entries join this task's, so earlier tasks stay retrievable.
+    init_from: str = ""
     augment_copies: int = 0  # shifted copies of every demo keyframe, each through the frozen prior
     augment_max_voxels: int = 2
     seed: int = 0
@@ -71,7 +74,7 @@ class ResidualData:
 def residual_data(paths: list[Path], stage: FrozenPriorStage, text_encoder: TextEncoder, desc: str,
                   augment_copies: int = 0, augment_max_voxels: int = 0, seed: int = 0,
                   memory: MemoryBank | None = None, own_memory: bool = False, build_memory: float | None = None,
-                  task: str = "") -> ResidualData:
+                  task: str = "", earlier_memory: MemoryBank | None = None) -> ResidualData:
     """Manager inputs and residual targets for every (keyframe, arm), from the frozen prior's outputs.
 
     With ``augment_copies`` > 0, each sample is also seen through that many whole-voxel translations of
@@ -80,7 +83,8 @@ def residual_data(paths: list[Path], stage: FrozenPriorStage, text_encoder: Text
 
     With a ``memory`` bank, each sample also gets the retrieved temporal reference of its episode; with
     ``own_memory`` the bank's first entries are these very episodes (in order) and an episode never retrieves
-    itself. ``build_memory`` (a confidence threshold) builds that bank from these episodes in the same pass.
+    itself. ``build_memory`` (a confidence threshold) builds that bank from these episodes in the same pass,
+    followed by the entries of ``earlier_memory`` (an earlier task's bank) when given.
     """
     samples = build_arm_samples(paths, stage.builder, stage.max_keyframes, desc=desc)
     grid = stage.builder.grid
@@ -114,6 +118,8 @@ def residual_data(paths: list[Path], stage: FrozenPriorStage, text_encoder: Text
             first_features = features_t
             if build_memory is not None:
                 memory, own_memory = episode_memory(samples, first_features, text, build_memory, task), True
+                if earlier_memory is not None:
+                    memory.extend(earlier_memory)
         reference = None
         if memory is not None:
             reference = retrieved_references(samples, first_features, text, base_t, memory, own_memory)
@@ -194,6 +200,32 @@ def segmenter_options(grounding_dino: str, sam: str) -> dict[str, str]:
     return {k: v for k, v in (("detector", grounding_dino), ("sam", sam)) if v}
 
 
+def earlier_checkpoint(init_from: str) -> Path:
+    """The checkpoint folder of an earlier run given as the run folder or the checkpoint itself."""
+    for candidate in (Path(init_from) / "best", Path(init_from)):
+        if (candidate / "config.json").is_file() and (candidate / "model.safetensors").is_file():
+            return candidate
+    raise FileNotFoundError(f"init_from={init_from!r}: no BimanualShift checkpoint there (expected config.json and "
+                            "model.safetensors in it or in its best/ folder); give an earlier `bimanualshift train` "
+                            "run folder")
+
+
+def load_earlier(init_from: str, rcfg: ResidualConfig, retrieval: bool
+                 ) -> tuple[dict[str, torch.Tensor], MemoryBank | None]:
+    """An earlier run's residual weights (checked against this run's shapes) and, with retrieval, its bank."""
+    import json
+
+    from bimanualshift.methods.bimanualshift import MEMORY_FILE
+
+    checkpoint = earlier_checkpoint(init_from)
+    earlier = json.loads((checkpoint / "config.json").read_text())
+    if earlier.get("residual") != asdict(rcfg):
+        raise ValueError(f"init_from={init_from!r} has residual config {earlier.get('residual')}, this run needs "
+                         f"{asdict(rcfg)}; continue from a run with the same prior, text encoder and switches")
+    memory = MemoryBank.load(checkpoint / MEMORY_FILE) if retrieval and (checkpoint / MEMORY_FILE).is_file() else None
+    return load_file(str(checkpoint / "model.safetensors")), memory
+
+
 def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Path:
     started = time.time()
     out = Path(cfg.out)
@@ -207,16 +239,20 @@ def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Pat
     if not paths:
         raise FileNotFoundError(f"no bimanual demos for {cfg.task} under {cfg.data}; run "
                                 f"`bimanualshift collect --task {cfg.task} --out {cfg.data}` first")
+    rcfg = ResidualConfig(feature_dim=prior.feature_dim, text_dim=text_encoder.dim, structured=cfg.structured,
+                          reference_dim=REFERENCE_DIM if cfg.retrieval else 0)
+    earlier_state, earlier_memory = load_earlier(cfg.init_from, rcfg, cfg.retrieval) if cfg.init_from else (None, None)
     train = residual_data(paths, stage, text_encoder, "prior outputs (train)", cfg.augment_copies,
                           cfg.augment_max_voxels, cfg.seed,
-                          build_memory=cfg.retrieval_threshold if cfg.retrieval else None, task=cfg.task)
+                          build_memory=cfg.retrieval_threshold if cfg.retrieval else None, task=cfg.task,
+                          earlier_memory=earlier_memory)
     memory = train.memory
     val_paths = list_episodes(cfg.validation_data, cfg.task)
     val = residual_data(val_paths, stage, text_encoder, "prior outputs (val)", memory=memory) if val_paths else train
     torch.manual_seed(cfg.seed)  # here, so how the prior was obtained cannot change the residual's init
-    rcfg = ResidualConfig(feature_dim=prior.feature_dim, text_dim=text_encoder.dim, structured=cfg.structured,
-                          reference_dim=REFERENCE_DIM if cfg.retrieval else 0)
     residual = ResidualPolicy(rcfg, SkillBasis.from_verbs(text_encoder))
+    if earlier_state is not None:
+        residual.load_state_dict(earlier_state)
     optimizer = make_lamb(residual.parameters(), lr=cfg.lr)
     checkpoint_meta = {"prior": cfg.prior, "use_projection": cfg.use_projection, "segmenter": cfg.segmenter,
                        "retrieval": cfg.retrieval,

@@ -10,6 +10,7 @@ leader's action (teacher forcing); at test time it sees the leader network's pre
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -54,10 +55,20 @@ FOLLOWER_SPEC = VoxelNetworkSpec("lf_follower", arms=(FOLLOWER,), extra_dim=LEAD
 
 
 def train_leader_follower(request: TrainRequest, size: str = "default", lr: float = 5e-4, batch_size: int = 4,
-                          checkpoint_every: int = 250) -> Path:
+                          checkpoint_every: int = 250, init_from: str = "") -> Path:
+    """Fine-tune the pair from the single-arm prior, or (continual learning) from an earlier pair's run folder
+    ``init_from``: each network then starts from its own earlier weights."""
     out = Path(request.out)
-    leader = train_voxel_network(LEADER_SPEC, request, out / "leader", size, lr, batch_size, checkpoint_every)
-    follower = train_voxel_network(FOLLOWER_SPEC, request, out / "follower", size, lr, batch_size, checkpoint_every)
+    starts = {"leader": request, "follower": request}
+    if init_from:
+        path = Path(init_from) / "pair.json"
+        if not path.is_file():
+            raise FileNotFoundError(f"init_from={init_from!r}: no leader-follower pair there (pair.json missing)")
+        earlier = json.loads(path.read_text())
+        starts = {role: replace(request, prior=earlier[role]) for role in starts}
+    leader = train_voxel_network(LEADER_SPEC, starts["leader"], out / "leader", size, lr, batch_size, checkpoint_every)
+    follower = train_voxel_network(FOLLOWER_SPEC, starts["follower"], out / "follower", size, lr, batch_size,
+                                   checkpoint_every)
     atomic_write_json(out / "pair.json", {"type": "peract_lf", "leader": str(leader), "follower": str(follower)})
     return out
 

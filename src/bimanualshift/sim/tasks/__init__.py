@@ -1,6 +1,7 @@
 """Importing this package registers every task."""
 
 from bimanualshift.sim.tasks.bimanual import (  # noqa: F401
+    buttons_then_lift_ball,
     lift_ball,
     pick_up_plate,
     push_two_buttons,

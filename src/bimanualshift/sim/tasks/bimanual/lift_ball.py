@@ -36,12 +36,16 @@ class LiftBall(Task):
         return bool(sim.body_pos("ball")[2] > TABLE_TOP_Z + BALL_RADIUS + LIFTED_BY)
 
     def expert_keyframes(self, sim: SimHandle) -> list[Keyframe]:
-        centre = sim.body_pos("ball")
-        side = {"left": 1.0, "right": -1.0}  # the left arm works on the ball's +y side
-        quat = down_quat(np.pi / 2)  # fingers along x: the hand's thin side faces the ball
+        return squeeze_and_lift(sim.body_pos("ball"))
 
-        def at(dy: float, dz: float) -> Keyframe:
-            return {arm: ArmAction(centre + [0.0, s * dy, dz], quat, 0.0, 1.0) for arm, s in side.items()}
 
-        r = BALL_RADIUS + 0.02  # fingers beside the ball, clear of it
-        return [at(r, 0.12), at(r, 0.0), at(BALL_RADIUS - SQUEEZE, 0.0), at(BALL_RADIUS - SQUEEZE, LIFTED_BY + 0.06)]
+def squeeze_and_lift(centre: np.ndarray) -> list[Keyframe]:
+    """Both hands beside the ball (the left on its +y side), squeeze it and lift it."""
+    side = {"left": 1.0, "right": -1.0}
+    quat = down_quat(np.pi / 2)  # fingers along x: the hand's thin side faces the ball
+
+    def at(dy: float, dz: float) -> Keyframe:
+        return {arm: ArmAction(centre + [0.0, s * dy, dz], quat, 0.0, 1.0) for arm, s in side.items()}
+
+    r = BALL_RADIUS + 0.02  # fingers beside the ball, clear of it
+    return [at(r, 0.12), at(r, 0.0), at(BALL_RADIUS - SQUEEZE, 0.0), at(BALL_RADIUS - SQUEEZE, LIFTED_BY + 0.06)]

@@ -12,6 +12,7 @@ from bimanualshift.sim.task import Keyframe, SimHandle, Task, register_task
 MOUTH_X = (0.04, 0.10)  # where the oven's mouth stands (world x), its centre's y and its turn
 MOUTH_Y = (-0.06, 0.06)
 YAW = np.pi / 8
+DOOR_OPEN_AT = np.pi / 3  # hinge angle (0 shut, pi/2 level) from which the tray can slide out
 PHRASINGS = (
     "take the tray out of the oven",
     "take tray out of oven",
@@ -26,6 +27,7 @@ PHRASINGS = (
 @register_task("take_tray_out_of_oven")
 class TakeTrayOutOfOven(Task):
     bimanual = True
+    stage_names = ("door open", "tray out")
 
     def scene_xml(self) -> str:
         return oven_xml("oven") + tray_xml("tray", round_tray=self.perturbations.unseen_shapes)
@@ -46,6 +48,10 @@ class TakeTrayOutOfOven(Task):
     def evaluate_success(self, sim: SimHandle) -> bool:
         tray = oven_frame(sim, "oven").to_local(sim.body_pos("tray"))
         return bool(tray[0] < -TRAY_HALF[0] and not sim.touching_robot("tray"))  # all of it out, let go
+
+    def evaluate_stages(self, sim: SimHandle) -> list[bool]:
+        door_open = float(sim.joint_qpos("oven_door_hinge")[0]) >= DOOR_OPEN_AT
+        return [door_open, self.evaluate_success(sim)]
 
     def expert_keyframes(self, sim: SimHandle) -> list[Keyframe]:
         frame = oven_frame(sim, "oven")
