@@ -16,6 +16,11 @@ PRIOR_SIZES: dict[str, dict[str, dict[str, Any]]] = {
         "debug": {"voxel_size": 16, "max_points": 128, "point_dim": 32, "cells": 2, "dim": 32, "layers": 1, "heads": 2,
                   "train_timesteps": 20, "inference_steps": 3},
     },
+    "act": {
+        "default": {},  # ACTConfig defaults: 32^3 voxels, 1024 points, 2 + 2 layers of width 128
+        "debug": {"voxel_size": 16, "max_points": 128, "point_dim": 32, "cells": 2, "dim": 32, "encoder_layers": 1,
+                  "decoder_layers": 1, "heads": 2, "latent_dim": 4},
+    },
 }
 PRIOR_MODELS = PRIOR_SIZES["peract"]  # the PerAct sizes, by their historical name
 

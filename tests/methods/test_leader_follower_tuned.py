@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -94,3 +95,31 @@ def test_continual_pair_starts_from_the_earlier_pair(demo_root: Path, tmp_path: 
             torch.testing.assert_close(a[k], b[k], atol=1e-6, rtol=0, msg=f"{role} {k}")
     with pytest.raises(FileNotFoundError, match="no leader-follower pair"):
         spec.train(request("third", init_from=str(tmp_path / "nowhere")))
+
+
+def test_dp_pair_fine_tunes_a_diffusion_prior_and_refuses_a_voxel_one(demo_root: Path, tmp_path: Path) -> None:
+    from bimanualshift.methods.baselines.leader_follower_tuned import DiffusionLeaderFollowerPolicy
+    from bimanualshift.priors.base import UnimanualPrior
+    from tests.training.test_train_resume import pretrain, pretrain_cfg
+
+    dp = pretrain(pretrain_cfg(demo_root, tmp_path / "dp", steps=2, prior="dp"))
+    voxel = pretrain(pretrain_cfg(demo_root, tmp_path / "voxel", steps=2))
+
+    def request(out: str, prior: Path) -> TrainRequest:
+        return TrainRequest(task="push_two_buttons", data=str(demo_root / "bimanual"),
+                            validation_data=str(demo_root / "bimanual"), demos=2, prior=str(voxel),
+                            out=str(tmp_path / out), steps=2, overrides={"checkpoint_every": 2, "prior": str(prior)})
+
+    spec = get_method("dp_lf")
+    pair = spec.train(request("pair", dp))
+    policy = spec.load(pair, request("pair", dp))
+    assert isinstance(policy, DiffusionLeaderFollowerPolicy) and policy.name == "dp_lf"
+    follower = UnimanualPrior.from_pretrained(json.loads((pair / "pair.json").read_text())["follower"])
+    assert follower.config.type == "diffusion" and follower.config.proprio_dim == 16
+    env = ManipulationEnv("push_two_buttons", image_size=64)
+    try:
+        assert rollout(env, policy, seed=200_000, max_keyframes=1).keyframes == 1
+    finally:
+        env.close()
+    with pytest.raises(ValueError, match="fine-tunes a diffusion prior"):
+        spec.train(request("wrong", voxel))

@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import pytest
 import torch
 from safetensors.torch import load_file
 
@@ -68,6 +69,24 @@ def test_trains_from_scratch_resumes_and_acts(demo_root: Path, tmp_path: Path) -
     assert UnimanualPrior.from_pretrained(best).config.proprio_dim == 18  # own 8 + other arm 8 + one-hot 2
     policy = spec.load(best, request(tmp_path / "a", 4))
     assert isinstance(policy, ScratchVoxelPolicy) and policy.runner.builder.projection is None
+    env = ManipulationEnv("push_two_buttons", image_size=64)
+    try:
+        assert rollout(env, policy, seed=200_000, max_keyframes=1).keyframes == 1
+    finally:
+        env.close()
+
+
+@pytest.mark.parametrize(("method", "kind"), [("scratch_dp", "diffusion"), ("scratch_act", "act")])
+def test_chunk_policies_from_scratch_train_and_act(demo_root: Path, tmp_path: Path, method: str, kind: str) -> None:
+    request = TrainRequest(task="push_two_buttons", data=str(demo_root / "bimanual"),
+                           validation_data=str(demo_root / "bimanual"), demos=2, prior="", out=str(tmp_path / method),
+                           steps=2, overrides={"size": "debug", "checkpoint_every": 2})
+    spec = get_method(method)
+    best = spec.train(request)
+    model = UnimanualPrior.from_pretrained(best)
+    assert model.config.type == kind and model.config.proprio_dim == 18  # own 8 + other arm 8 + one-hot 2
+    policy = spec.load(best, request)
+    assert isinstance(policy, ScratchVoxelPolicy) and policy.name == method
     env = ManipulationEnv("push_two_buttons", image_size=64)
     try:
         assert rollout(env, policy, seed=200_000, max_keyframes=1).keyframes == 1

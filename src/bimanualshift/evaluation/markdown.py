@@ -100,9 +100,10 @@ def table_for(result: dict[str, Any]) -> str:
     """Expert measurements, success rates of methods, or a generic table of whatever the rows hold."""
     first = result["rows"][0] if result["rows"] else {}
     if result.get("bench"):
-        from bimanualshift.evaluation.bench import bench_table
+        from bimanualshift.evaluation.bench import bench_table, stage_table
 
-        return "\n".join([bench_table(result["rows"]), _footer(result)]) + "\n"
+        stages = stage_table(result["rows"])
+        return "\n".join([bench_table(result["rows"]), *([stages] if stages else []), _footer(result)]) + "\n"
     if "prior" in first and "tasks" in first:
         return priors_table(result)
     if "segmenter" in first and "kept" in first:

@@ -146,3 +146,15 @@ register_method(_backbone_method(
 register_method(_backbone_method(
     "anybimanual", "baseline: AnyBimanual-style, the single-arm prior fine-tuned with learned soft voxel masks per arm "
     "and skill-weighted language", "anybimanual:train_anybimanual", "anybimanual:AnyBimanualPolicy"))
+register_method(_backbone_method(
+    "dp_lf", "baseline: DP-LF, the leader-follower pair fine-tuned from the shipped Diffusion Policy prior (dp_suite) "
+    "on the bimanual demos", "leader_follower_tuned:train_dp_leader_follower",
+    "leader_follower_tuned:DiffusionLeaderFollowerPolicy", continual=True))
+register_method(_backbone_method(
+    "scratch_dp", "baseline: a Diffusion Policy for both arms (point cloud of the global scene, the other arm's pose "
+    "and the acting arm's one-hot as extra proprioception) trained from scratch on the bimanual demos only",
+    "scratch_voxel:train_scratch_dp", "scratch_voxel:ScratchDiffusionPolicy"))
+register_method(_backbone_method(
+    "scratch_act", "baseline: ACT (a CVAE transformer predicting action chunks; point cloud of the global scene, the "
+    "other arm's pose and the acting arm's one-hot as extra proprioception) trained from scratch on the bimanual demos",
+    "scratch_voxel:train_scratch_act", "scratch_voxel:ScratchACTPolicy"))

@@ -54,6 +54,7 @@ class PriorConfig:
 
 class UnimanualPrior(nn.Module):
     config_class: ClassVar[type[PriorConfig]]
+    proprio_weight: ClassVar[str] = ""  # state-dict key of the proprioception's input layer (for widening)
 
     def __init__(self, config: PriorConfig) -> None:
         super().__init__()

@@ -1,11 +1,11 @@
-"""Training PerAct-style voxel networks on bimanual demos, for the baselines that fine-tune or train a
-backbone (the from-scratch bimanual policy, the leader-follower pair).
+"""Training prior networks (PerAct-style or Diffusion Policy) on bimanual demos, for the baselines that
+fine-tune or train a backbone (the from-scratch bimanual policies, the leader-follower pairs).
 
-The same network, losses, SE(3) augmentation (every pose in the proprioception moves with the scene), LAMB and
-resumable loop as prior pretraining; validation keyframes within 3 cm pick the checkpoint. What differs per
-baseline is which arms' samples train the network, what its proprioception holds, and where it starts from
-(random weights, or a single-arm prior whose proprioception layer is widened with zero weights, so the
-fine-tuning starts from exactly the prior's behaviour).
+The same networks, losses, SE(3) augmentation (every pose in the proprioception moves with the scene),
+optimiser and resumable loop as prior pretraining; validation keyframes within 3 cm pick the checkpoint.
+What differs per baseline is which arms' samples train the network, what its proprioception holds, and where
+it starts from (random weights, or a single-arm prior whose proprioception layer is widened with zero weights,
+so the fine-tuning starts from exactly the prior's behaviour).
 """
 
 from __future__ import annotations
@@ -26,7 +26,7 @@ from bimanualshift.perception.observation import ArmObservationBuilder
 from bimanualshift.priors.base import UnimanualPrior
 from bimanualshift.training.augment import Se3Augmentation
 from bimanualshift.training.loop import run_training
-from bimanualshift.training.optim import make_lamb
+from bimanualshift.training.optim import make_optimizer
 from bimanualshift.training.pretrain import PretrainConfig, PriorBatches, build_prior, translation_accuracy
 from bimanualshift.training.samples import ArmSamples, build_arm_samples
 from bimanualshift.utils.io import atomic_write_json
@@ -45,6 +45,7 @@ class VoxelNetworkSpec:
     extra_proprio: ExtraProprio | None = None
     extra_poses: tuple[int, ...] = ()  # where poses (position, quaternion) start among the extras
     init_from_prior: bool = False  # start from the request's prior, or from random weights
+    kind: str = "peract"  # the network: peract or diffusion (a fine-tuned prior must be of this kind)
     build: Callable[[UnimanualPrior | None, int, str], UnimanualPrior] | None = None  # (prior, extra_dim, size)
 
 
@@ -63,21 +64,24 @@ def select_arms(samples: ArmSamples, arms: tuple[str, ...]) -> ArmSamples:
 def widen_from_prior(model: UnimanualPrior, prior: UnimanualPrior, extra_dim: int) -> None:
     """Copy the prior's weights; the wider proprioception layer gets zero weights for the extra columns. Modules
     ``model`` has beyond the prior's keep their own initialisation."""
+    key = type(prior).proprio_weight
+    if not key or key != type(model).proprio_weight:
+        raise ValueError(f"cannot widen a {type(prior).__name__} into a {type(model).__name__}")
     state = {k: v.clone() for k, v in prior.state_dict().items()}
-    old = state["proprio_proj.weight"]  # (dim, OWN_PROPRIO [+ extras] + 1)
-    width = model.state_dict()["proprio_proj.weight"].shape[1]
+    old = state[key]  # (dim, OWN_PROPRIO [+ extras] + 1)
+    width = model.state_dict()[key].shape[1]
     if old.shape[1] != width:  # a single-arm prior: widen; an earlier network of this kind already fits
         new = torch.zeros(old.shape[0], width)
         new[:, :OWN_PROPRIO] = old[:, :OWN_PROPRIO]
         new[:, -1] = old[:, -1]  # the keyframe fraction
-        state["proprio_proj.weight"] = new
+        state[key] = new
     unexpected = model.load_state_dict(state, strict=False).unexpected_keys
     if unexpected:
         raise ValueError(f"the prior has weights this network lacks: {unexpected}")
 
 
-def build_widened(prior: UnimanualPrior | None, extra_dim: int, size: str) -> UnimanualPrior:
-    """A PerAct-style network reading ``extra_dim`` more proprio values: the prior's architecture and weights
+def build_widened(prior: UnimanualPrior | None, extra_dim: int, size: str, kind: str = "peract") -> UnimanualPrior:
+    """A network of ``kind`` reading ``extra_dim`` more proprio values: the prior's architecture and weights
     (widened), or a fresh network of the named size."""
     overrides = {"proprio_dim": OWN_PROPRIO + extra_dim}
     if prior is not None:
@@ -86,7 +90,8 @@ def build_widened(prior: UnimanualPrior | None, extra_dim: int, size: str) -> Un
         if prior_extra not in (0, extra_dim):
             raise ValueError(f"cannot start a network reading {extra_dim} extra proprio values from one reading "
                              f"{prior_extra}")
-    model = build_prior(PretrainConfig(prior="peract", size=size, model=overrides))
+    model = build_prior(PretrainConfig(prior=prior.config.type if prior is not None else kind, size=size,
+                                       model=overrides))
     if prior is not None:
         widen_from_prior(model, prior, extra_dim)
     return model
@@ -112,7 +117,8 @@ def _batches(spec: VoxelNetworkSpec, paths: list[Path], builder: ArmObservationB
 
 
 def train_voxel_network(spec: VoxelNetworkSpec, request: TrainRequest, out: Path, size: str = "default",
-                        lr: float = 1e-3, batch_size: int = 4, checkpoint_every: int = 250) -> Path:
+                        lr: float = 1e-3, batch_size: int = 4, checkpoint_every: int = 250,
+                        optimizer: str = "lamb") -> Path:
     started = time.time()
     out.mkdir(parents=True, exist_ok=True)
     paths = list_episodes(request.data, request.task)[: request.demos]
@@ -121,9 +127,10 @@ def train_voxel_network(spec: VoxelNetworkSpec, request: TrainRequest, out: Path
                                 f"`bimanualshift collect --task {request.task} --out {request.data}`")
     torch.manual_seed(request.seed)
     prior = UnimanualPrior.from_pretrained(request.prior) if spec.init_from_prior else None
-    if prior is not None and prior.config.type != "peract":
-        raise ValueError(f"{spec.name} fine-tunes a PerAct-style prior; {request.prior} is a {prior.config.type}")
-    model = (spec.build or build_widened)(prior, spec.extra_dim, size)
+    if prior is not None and prior.config.type != spec.kind:
+        raise ValueError(f"{spec.name} fine-tunes a {spec.kind} prior; {request.prior} is a {prior.config.type}")
+    model = spec.build(prior, spec.extra_dim, size) if spec.build else build_widened(prior, spec.extra_dim, size,
+                                                                                     spec.kind)
     grid = VoxelGrid(tuple(model.config.bounds), model.config.voxel_size)
     builder = ArmObservationBuilder(grid)  # the global scene: no arm-conditioned projection
     train = _batches(spec, paths, builder, grid, model.action_horizon, f"voxelise train ({spec.name})")
@@ -131,10 +138,11 @@ def train_voxel_network(spec: VoxelNetworkSpec, request: TrainRequest, out: Path
     val = _batches(spec, val_paths, builder, grid, model.action_horizon, "voxelise val") if val_paths else train
     if prior is None:  # a fine-tuned prior keeps its own normalisation
         model.set_normalization(train.actions["position"].reshape(-1, 3))
-    optimizer = make_lamb(model.parameters(), lr=lr)
+    optimiser = make_optimizer(optimizer, model.parameters(), lr=lr)
     augmentation = Se3Augmentation(PretrainConfig.augment_translation_m, PretrainConfig.augment_yaw_deg)
-    atomic_write_json(out / "train_config.json", {"network": spec.name, "request": asdict(request), "size": size,
-                                                 "lr": lr, "batch_size": batch_size})
+    atomic_write_json(out / "train_config.json", {"network": spec.name, "kind": spec.kind, "request": asdict(request),
+                                                 "size": size, "lr": lr, "batch_size": batch_size,
+                                                 "optimizer": optimizer})
 
     def step_fn(step: int, gen: torch.Generator) -> dict[str, torch.Tensor]:
         index = torch.randint(len(train), (batch_size,), generator=gen)
@@ -150,7 +158,7 @@ def train_voxel_network(spec: VoxelNetworkSpec, request: TrainRequest, out: Path
                                                    if prior is not None else None,
                                                    "validation_translation_accuracy": -value})
 
-    result = run_training(out, model, optimizer, request.steps, step_fn, request.seed, checkpoint_every, validate,
+    result = run_training(out, model, optimiser, request.steps, step_fn, request.seed, checkpoint_every, validate,
                           on_best, desc=f"train {spec.name}")
     atomic_write_json(out / "summary.json", {**result, "wall_time_s": round(time.time() - started, 1),
                                              "train_samples": len(train)})

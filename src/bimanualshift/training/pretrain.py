@@ -35,7 +35,7 @@ PRIOR_ALIASES = {"dp": "diffusion"}
 
 @dataclass
 class PretrainConfig:
-    prior: str = "peract"  # a registered prior type: peract, or dp (= diffusion)
+    prior: str = "peract"  # a registered prior type: peract, dp (= diffusion) or act
     tasks: list[str] = field(default_factory=lambda: ["unimanual"])  # task names or the group 'unimanual'
     data: str = "data/unimanual"
     validation_data: str = "data/unimanual_val"

@@ -1,4 +1,5 @@
-"""Baseline: PerAct-LF, the leader-follower pair of PerAct² fine-tuned from the single-arm prior.
+"""Baselines: PerAct-LF and DP-LF, the leader-follower pair of PerAct² fine-tuned from a single-arm prior
+(the PerAct-style one, or the Diffusion Policy one).
 
 Two networks start from the same single-arm checkpoint and are fine-tuned (every weight) on the bimanual demos,
 on the global scene. The right arm leads; the left arm follows and conditions on the leader's action (its
@@ -54,8 +55,13 @@ FOLLOWER_SPEC = VoxelNetworkSpec("lf_follower", arms=(FOLLOWER,), extra_dim=LEAD
                                  extra_proprio=leader_extras, extra_poses=(0,), init_from_prior=True)
 
 
+DP_LEADER_SPEC = replace(LEADER_SPEC, name="dp_lf_leader", kind="diffusion")
+DP_FOLLOWER_SPEC = replace(FOLLOWER_SPEC, name="dp_lf_follower", kind="diffusion")
+
+
 def train_leader_follower(request: TrainRequest, size: str = "default", lr: float = 5e-4, batch_size: int = 4,
-                          checkpoint_every: int = 250, init_from: str = "") -> Path:
+                          checkpoint_every: int = 250, init_from: str = "", kind: str = "peract",
+                          optimizer: str = "lamb") -> Path:
     """Fine-tune the pair from the single-arm prior, or (continual learning) from an earlier pair's run folder
     ``init_from``: each network then starts from its own earlier weights."""
     out = Path(request.out)
@@ -66,11 +72,22 @@ def train_leader_follower(request: TrainRequest, size: str = "default", lr: floa
             raise FileNotFoundError(f"init_from={init_from!r}: no leader-follower pair there (pair.json missing)")
         earlier = json.loads(path.read_text())
         starts = {role: replace(request, prior=earlier[role]) for role in starts}
-    leader = train_voxel_network(LEADER_SPEC, starts["leader"], out / "leader", size, lr, batch_size, checkpoint_every)
-    follower = train_voxel_network(FOLLOWER_SPEC, starts["follower"], out / "follower", size, lr, batch_size,
-                                   checkpoint_every)
-    atomic_write_json(out / "pair.json", {"type": "peract_lf", "leader": str(leader), "follower": str(follower)})
+    specs = (LEADER_SPEC, FOLLOWER_SPEC) if kind == "peract" else (DP_LEADER_SPEC, DP_FOLLOWER_SPEC)
+    leader = train_voxel_network(specs[0], starts["leader"], out / "leader", size, lr, batch_size, checkpoint_every,
+                                 optimizer)
+    follower = train_voxel_network(specs[1], starts["follower"], out / "follower", size, lr, batch_size,
+                                   checkpoint_every, optimizer)
+    atomic_write_json(out / "pair.json", {"type": f"{'peract' if kind == 'peract' else 'dp'}_lf",
+                                          "leader": str(leader), "follower": str(follower)})
     return out
+
+
+def train_dp_leader_follower(request: TrainRequest, prior: str = "dp_suite", lr: float = 1e-4, **kwargs: object
+                             ) -> Path:
+    """DP-LF: the pair fine-tuned from a Diffusion Policy prior (the shipped one unless ``prior`` names another;
+    the benchmark's ``--prior`` names the PerAct-style prior the other methods use)."""
+    return train_leader_follower(replace(request, prior=prior), lr=lr, kind="diffusion", optimizer="adamw",
+                                 **kwargs)  # type: ignore[arg-type]
 
 
 class LeaderFollowerPolicy:
@@ -98,3 +115,7 @@ class LeaderFollowerPolicy:
         follow = self.follower.act(view, FOLLOWER, action_in_frame(lead, view.frames[FOLLOWER]))
         rows = {LEADER: lead, FOLLOWER: follow}
         return np.stack([rows[a] for a in arms])
+
+
+class DiffusionLeaderFollowerPolicy(LeaderFollowerPolicy):
+    name = "dp_lf"

@@ -1,4 +1,5 @@
-"""Baseline: a PerAct²-style bimanual voxel policy trained from scratch on the bimanual demos only.
+"""Baselines trained from scratch on the bimanual demos only: a PerAct²-style voxel policy, a Diffusion Policy
+and ACT.
 
 One network serves both arms (as PerAct² shares one trunk between its two arm heads): it sees the global scene
 (no arm-conditioned projection) in the acting arm's frame, and its proprioception is extended with the other
@@ -8,6 +9,7 @@ the comparison BimanualShift's data-efficiency claim is about.
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -39,9 +41,21 @@ SPEC = VoxelNetworkSpec("scratch_voxel", arms=ARMS, extra_dim=EXTRA_PROPRIO, ext
                         extra_poses=(0,))
 
 
+DP_SPEC = replace(SPEC, name="scratch_dp", kind="diffusion")
+ACT_SPEC = replace(SPEC, name="scratch_act", kind="act")
+
+
 def train_scratch_voxel(request: TrainRequest, size: str = "default", lr: float = 1e-3, batch_size: int = 4,
                         checkpoint_every: int = 250) -> Path:
     return train_voxel_network(SPEC, request, Path(request.out), size, lr, batch_size, checkpoint_every)
+
+
+def train_scratch_dp(request: TrainRequest, size: str = "default", lr: float = 3e-4, batch_size: int = 4,
+                     checkpoint_every: int = 250) -> Path:
+    """The Diffusion Policy network (point cloud of the global scene, action chunks) for both arms, from
+    scratch; AdamW as the shipped Diffusion Policy prior was pretrained with."""
+    return train_voxel_network(DP_SPEC, request, Path(request.out), size, lr, batch_size, checkpoint_every,
+                               optimizer="adamw")
 
 
 class ScratchVoxelPolicy:
@@ -59,3 +73,20 @@ class ScratchVoxelPolicy:
         rows = [self.runner.act(view, arm, scratch_extras(view.per_arm[arm].other_proprio[None], [arm]))
                 for arm in obs.scene.arm_names]
         return np.stack(rows)
+
+
+def train_scratch_act(request: TrainRequest, size: str = "default", lr: float = 1e-4, batch_size: int = 4,
+                      checkpoint_every: int = 250) -> Path:
+    """ACT (CVAE transformer over action chunks) for both arms, from scratch; AdamW at ACT's learning rate."""
+    return train_voxel_network(ACT_SPEC, request, Path(request.out), size, lr, batch_size, checkpoint_every,
+                               optimizer="adamw")
+
+
+class ScratchDiffusionPolicy(ScratchVoxelPolicy):
+    """Acts like the voxel one: the runner feeds any prior network the same observation and proprioception."""
+
+    name = "scratch_dp"
+
+
+class ScratchACTPolicy(ScratchVoxelPolicy):
+    name = "scratch_act"

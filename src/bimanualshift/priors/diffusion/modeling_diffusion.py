@@ -17,9 +17,15 @@ import torch.nn.functional as F
 from diffusers import DDIMScheduler, DDPMScheduler
 from torch import nn
 
-from bimanualshift.geometry.torch_rotations import matrix_to_quat, quat_to_matrix, rotation_6d_to_matrix
 from bimanualshift.geometry.voxels import VoxelGrid
 from bimanualshift.priors.base import PriorOutput, UnimanualPrior, register_prior
+from bimanualshift.priors.chunk_actions import (
+    chunk_output_fields,
+    decode_actions,
+    encode_actions,
+    fit_position_range,
+    register_action_range,
+)
 from bimanualshift.priors.diffusion.configuration_diffusion import DiffusionConfig
 
 
@@ -81,6 +87,7 @@ class PointEncoder(nn.Module):
 @register_prior("diffusion")
 class DiffusionPrior(UnimanualPrior):
     config_class = DiffusionConfig
+    proprio_weight = "obs_tokens.proprio.weight"  # the input layer of the proprioception (widened by the baselines)
 
     def __init__(self, config: DiffusionConfig) -> None:
         super().__init__(config)
@@ -100,10 +107,8 @@ class DiffusionPrior(UnimanualPrior):
         layer = nn.TransformerDecoderLayer(c.dim, c.heads, 2 * c.dim, dropout=0.0, batch_first=True, norm_first=True)
         self.denoiser = nn.TransformerDecoder(layer, c.layers)
         self.action_out = nn.Sequential(nn.LayerNorm(c.dim), nn.Linear(c.dim, c.action_dim))
-        # Normalisation of actions to [-1, 1]; set from the training data by `set_normalization`, saved with the
-        # weights (they are buffers).
-        self.register_buffer("action_low", torch.cat([torch.as_tensor(self.grid.lower), -torch.ones(c.action_dim - 3)]))
-        self.register_buffer("action_high", torch.cat([torch.as_tensor(self.grid.upper), torch.ones(c.action_dim - 3)]))
+        # Normalisation of actions to [-1, 1]; set from the training data by `set_normalization`.
+        register_action_range(self, self.grid)
         schedule = {"num_train_timesteps": c.train_timesteps, "beta_schedule": "squaredcos_cap_v2",
                     "clip_sample": True, "prediction_type": c.prediction_type}
         self.train_scheduler = DDPMScheduler(**schedule)
@@ -118,25 +123,14 @@ class DiffusionPrior(UnimanualPrior):
         return self.config.horizon
 
     def set_normalization(self, positions: torch.Tensor) -> None:
-        """Positions (N, 3) of the training actions fix the position range (with a 5 cm margin)."""
-        margin = 0.05
-        self.action_low[:3] = positions.min(0).values - margin
-        self.action_high[:3] = positions.max(0).values + margin
+        fit_position_range(self, positions)
 
-    # -- actions <-> normalised vectors -----------------------------------------------------------------------
     def encode_actions(self, position: torch.Tensor, quat: torch.Tensor, gripper: torch.Tensor,
                        collision: torch.Tensor) -> torch.Tensor:
-        """(B, H, 3), (B, H, 4), (B, H), (B, H) -> (B, H, action_dim) in [-1, 1]."""
-        rot6 = quat_to_matrix(quat)[..., :, :2].transpose(-1, -2).flatten(-2)  # first two columns
-        flags = torch.stack([gripper.float(), collision.float()], dim=-1) * 2 - 1  # {0, 1} -> {-1, 1}
-        raw = torch.cat([position, rot6, flags], dim=-1)
-        scaled = 2 * (raw - self.action_low) / (self.action_high - self.action_low) - 1
-        return scaled.clamp(-1, 1)
+        return encode_actions(self.action_low, self.action_high, position, quat, gripper, collision)
 
     def decode_actions(self, x: torch.Tensor) -> dict[str, torch.Tensor]:
-        raw = (x.clamp(-1, 1) + 1) / 2 * (self.action_high - self.action_low) + self.action_low
-        return {"position": raw[..., :3], "quat": matrix_to_quat(rotation_6d_to_matrix(raw[..., 3:9])),
-                "gripper_open": raw[..., 9], "ignore_collisions": raw[..., 10]}
+        return decode_actions(self.action_low, self.action_high, x)
 
     # -- networks ----------------------------------------------------------------------------------------------
     def observation(self, voxels: torch.Tensor, proprio: torch.Tensor, text: torch.Tensor
@@ -184,10 +178,4 @@ class DiffusionPrior(UnimanualPrior):
     @torch.no_grad()
     def predict(self, voxels: torch.Tensor, proprio: torch.Tensor, text: torch.Tensor) -> PriorOutput:
         x, feature = self.sample(voxels, proprio, text)
-        a = self.decode_actions(x)
-        chunk = torch.cat([a["position"], a["quat"], (a["gripper_open"] > 0)[..., None].float()], dim=-1)
-        return PriorOutput(
-            position=a["position"][:, 0], quat=a["quat"][:, 0],
-            gripper_open=(a["gripper_open"][:, 0] + 1) / 2, ignore_collisions=(a["ignore_collisions"][:, 0] + 1) / 2,
-            features=feature, chunk=chunk,
-        )
+        return PriorOutput(features=feature, **chunk_output_fields(self.decode_actions(x)))

@@ -34,6 +34,7 @@ class CrossAttention(nn.Module):
 @register_prior("peract")
 class PerActPrior(UnimanualPrior):
     config_class = PerActConfig
+    proprio_weight = "proprio_proj.weight"  # the input layer of the proprioception (widened by the baselines)
 
     def __init__(self, config: PerActConfig) -> None:
         super().__init__(config)
