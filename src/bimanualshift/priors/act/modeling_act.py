@@ -15,12 +15,12 @@ from torch import nn
 
 from bimanualshift.geometry.voxels import VoxelGrid
 from bimanualshift.priors.act.configuration_act import ACTConfig
-from bimanualshift.priors.base import PriorOutput, UnimanualPrior, register_prior
+from bimanualshift.priors.base import PriorOutput, register_prior
 from bimanualshift.priors.chunk_actions import (
+    PointCloudChunkPrior,
     chunk_output_fields,
     decode_actions,
     encode_actions,
-    fit_position_range,
     register_action_range,
 )
 from bimanualshift.priors.diffusion.modeling_diffusion import PointEncoder
@@ -32,9 +32,8 @@ def _encoder(dim: int, heads: int, layers: int) -> nn.TransformerEncoder:
 
 
 @register_prior("act")
-class ACTPolicy(UnimanualPrior):
+class ACTPolicy(PointCloudChunkPrior):
     config_class = ACTConfig
-    proprio_weight = "obs_tokens.proprio.weight"
 
     def __init__(self, config: ACTConfig) -> None:
         super().__init__(config)
@@ -60,17 +59,6 @@ class ACTPolicy(UnimanualPrior):
         self.style_encoder = _encoder(c.dim, c.heads, 1)
         self.style_out = nn.Linear(c.dim, 2 * c.latent_dim)
         register_action_range(self, self.grid)
-
-    @property
-    def feature_dim(self) -> int:
-        return self.config.point_dim
-
-    @property
-    def action_horizon(self) -> int:
-        return self.config.horizon
-
-    def set_normalization(self, positions: torch.Tensor) -> None:
-        fit_position_range(self, positions)
 
     def style(self, proprio: torch.Tensor, chunk: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         b = chunk.shape[0]

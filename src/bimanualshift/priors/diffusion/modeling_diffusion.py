@@ -18,12 +18,10 @@ from diffusers import DDIMScheduler, DDPMScheduler
 from torch import nn
 
 from bimanualshift.geometry.voxels import VoxelGrid
-from bimanualshift.priors.base import PriorOutput, UnimanualPrior, register_prior
+from bimanualshift.priors.base import PriorOutput, register_prior
 from bimanualshift.priors.chunk_actions import (
+    PointCloudChunkPrior,
     chunk_output_fields,
-    decode_actions,
-    encode_actions,
-    fit_position_range,
     register_action_range,
 )
 from bimanualshift.priors.diffusion.configuration_diffusion import DiffusionConfig
@@ -85,9 +83,8 @@ class PointEncoder(nn.Module):
 
 
 @register_prior("diffusion")
-class DiffusionPrior(UnimanualPrior):
+class DiffusionPrior(PointCloudChunkPrior):
     config_class = DiffusionConfig
-    proprio_weight = "obs_tokens.proprio.weight"  # the input layer of the proprioception (widened by the baselines)
 
     def __init__(self, config: DiffusionConfig) -> None:
         super().__init__(config)
@@ -113,24 +110,6 @@ class DiffusionPrior(UnimanualPrior):
                     "clip_sample": True, "prediction_type": c.prediction_type}
         self.train_scheduler = DDPMScheduler(**schedule)
         self.sample_scheduler = DDIMScheduler(**schedule)
-
-    @property
-    def feature_dim(self) -> int:
-        return self.config.point_dim
-
-    @property
-    def action_horizon(self) -> int:
-        return self.config.horizon
-
-    def set_normalization(self, positions: torch.Tensor) -> None:
-        fit_position_range(self, positions)
-
-    def encode_actions(self, position: torch.Tensor, quat: torch.Tensor, gripper: torch.Tensor,
-                       collision: torch.Tensor) -> torch.Tensor:
-        return encode_actions(self.action_low, self.action_high, position, quat, gripper, collision)
-
-    def decode_actions(self, x: torch.Tensor) -> dict[str, torch.Tensor]:
-        return decode_actions(self.action_low, self.action_high, x)
 
     # -- networks ----------------------------------------------------------------------------------------------
     def observation(self, voxels: torch.Tensor, proprio: torch.Tensor, text: torch.Tensor
