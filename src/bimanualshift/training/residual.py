@@ -7,6 +7,7 @@ arm and cached: each step then costs only the Manager, Z and G.
 
 from __future__ import annotations
 
+import json
 import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -20,7 +21,7 @@ from bimanualshift.encoders.text import TextEncoder, default_text_encoder, make_
 from bimanualshift.geometry.frames import rotation_difference
 from bimanualshift.memory.bank import MemoryBank, MemoryEntry
 from bimanualshift.memory.reference import REFERENCE_DIM, episode_key, reference_vector
-from bimanualshift.methods.bimanualshift import save_residual
+from bimanualshift.methods.bimanualshift import MEMORY_FILE, save_residual
 from bimanualshift.methods.stages import FrozenPriorStage
 from bimanualshift.priors.base import UnimanualPrior
 from bimanualshift.residual.manager import ResidualConfig, ResidualPolicy, manager_inputs
@@ -213,10 +214,6 @@ def earlier_checkpoint(init_from: str) -> Path:
 def load_earlier(init_from: str, rcfg: ResidualConfig, retrieval: bool
                  ) -> tuple[dict[str, torch.Tensor], MemoryBank | None]:
     """An earlier run's residual weights (checked against this run's shapes) and, with retrieval, its bank."""
-    import json
-
-    from bimanualshift.methods.bimanualshift import MEMORY_FILE
-
     checkpoint = earlier_checkpoint(init_from)
     earlier = json.loads((checkpoint / "config.json").read_text())
     if earlier.get("residual") != asdict(rcfg):
