@@ -19,7 +19,7 @@ from typing import Any
 from bimanualshift.evaluation.bench import BenchConfig, bar_plot, bench_table, run_bench, stage_table
 from bimanualshift.utils.io import atomic_write_text
 
-BASELINES = ["bimanualshift", "peract_lf", "scratch_voxel", "anybimanual"]
+BASELINES = ["bimanualshift", "peract_lf", "dp_lf", "scratch_voxel", "scratch_dp", "scratch_act", "anybimanual"]
 ABLATIONS = ["no_projection", "no_residual", "no_retrieval", "unstructured"]
 FEW_SHOT_TASKS = ["push_two_buttons", "lift_ball", "pick_up_plate"]
 
