@@ -73,5 +73,7 @@ class ButtonsThenLiftBall(Task):
         return all(self.episode["pressed"]) and self._ball_rise(sim) > LIFTED_BY
 
     def expert_keyframes(self, sim: SimHandle) -> list[Keyframe]:
-        return press_keyframes({"left": button_top(sim, BUTTONS[0]), "right": button_top(sim, BUTTONS[1])}) + \
-            squeeze_and_lift(sim.body_pos("ball"))
+        # Each arm presses the button on its side (a mirrored layout swaps them).
+        a, b = (button_top(sim, name) for name in BUTTONS)
+        tops = {"left": a, "right": b} if a[1] > b[1] else {"left": b, "right": a}
+        return press_keyframes(tops) + squeeze_and_lift(sim.body_pos("ball"))
