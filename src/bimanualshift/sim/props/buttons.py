@@ -57,3 +57,16 @@ def press_keyframes(tops: dict[str, np.ndarray]) -> list[Keyframe]:
     for dz in (0.08, -0.025, 0.08):
         frames.append({arm: ArmAction(top + [0, 0, dz], DOWN_QUAT, 0.0, 0.0) for arm, top in tops.items()})
     return frames
+
+
+def latch_presses(sim: SimHandle, names: tuple[str, ...] | list[str], pressed: list[bool]) -> None:
+    """Mark every button pressed past ``BUTTON_PRESSED_AT`` (a press once made stays made)."""
+    for i, name in enumerate(names):
+        if button_travel(sim, name) >= BUTTON_PRESSED_AT:
+            pressed[i] = True
+
+
+def tops_by_side(sim: SimHandle, first: str, second: str) -> dict[str, np.ndarray]:
+    """The two buttons' tops, each given to the arm on its side (larger y: left; a mirrored layout swaps them)."""
+    a, b = button_top(sim, first), button_top(sim, second)
+    return {"left": a, "right": b} if a[1] > b[1] else {"left": b, "right": a}

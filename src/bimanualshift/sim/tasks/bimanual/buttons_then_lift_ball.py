@@ -9,12 +9,11 @@ from scipy.spatial.transform import Rotation
 
 from bimanualshift.sim.props.ball import BALL_RADIUS, ball_xml
 from bimanualshift.sim.props.buttons import (
-    BUTTON_PRESSED_AT,
-    button_top,
-    button_travel,
     button_xml,
+    latch_presses,
     place_button,
     press_keyframes,
+    tops_by_side,
 )
 from bimanualshift.sim.scene import TABLE_TOP_Z
 from bimanualshift.sim.task import Keyframe, SimHandle, Task, register_task
@@ -57,9 +56,7 @@ class ButtonsThenLiftBall(Task):
         return ["button", "ball"]
 
     def on_control_step(self, sim: SimHandle) -> None:
-        for i, name in enumerate(BUTTONS):
-            if button_travel(sim, name) >= BUTTON_PRESSED_AT:
-                self.episode["pressed"][i] = True
+        latch_presses(sim, BUTTONS, self.episode["pressed"])
 
     def _ball_rise(self, sim: SimHandle) -> float:
         return float(sim.body_pos("ball")[2] - (TABLE_TOP_Z + BALL_RADIUS))
@@ -74,6 +71,4 @@ class ButtonsThenLiftBall(Task):
 
     def expert_keyframes(self, sim: SimHandle) -> list[Keyframe]:
         # Each arm presses the button on its side (a mirrored layout swaps them).
-        a, b = (button_top(sim, name) for name in BUTTONS)
-        tops = {"left": a, "right": b} if a[1] > b[1] else {"left": b, "right": a}
-        return press_keyframes(tops) + squeeze_and_lift(sim.body_pos("ball"))
+        return press_keyframes(tops_by_side(sim, *BUTTONS)) + squeeze_and_lift(sim.body_pos("ball"))

@@ -5,12 +5,11 @@ from __future__ import annotations
 import numpy as np
 
 from bimanualshift.sim.props.buttons import (
-    BUTTON_PRESSED_AT,
-    button_top,
-    button_travel,
     button_xml,
+    latch_presses,
     place_button,
     press_keyframes,
+    tops_by_side,
 )
 from bimanualshift.sim.props.placement import sample_separated
 from bimanualshift.sim.task import Keyframe, SimHandle, Task, register_task
@@ -49,16 +48,12 @@ class PushTwoButtons(Task):
         return f"push the {c[a]} and the {c[b]} buttons"
 
     def on_control_step(self, sim: SimHandle) -> None:
-        for i, name in enumerate(BUTTONS):
-            if button_travel(sim, name) >= BUTTON_PRESSED_AT:
-                self.episode["pressed"][i] = True
+        latch_presses(sim, BUTTONS, self.episode["pressed"])
 
     def evaluate_success(self, sim: SimHandle) -> bool:
         return all(self.episode["pressed"][i] for i in self.episode["named"])
 
     def expert_keyframes(self, sim: SimHandle) -> list[Keyframe]:
         # Each arm presses the named button on its side (the layout may be mirrored).
-        a, b = (button_top(sim, BUTTONS[i]) for i in (0, 1))
-        tops = {"left": a, "right": b} if a[1] > b[1] else {"left": b, "right": a}
-        return press_keyframes(tops)
+        return press_keyframes(tops_by_side(sim, BUTTONS[0], BUTTONS[1]))
 
