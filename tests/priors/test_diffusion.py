@@ -92,7 +92,7 @@ def test_wrong_shapes_give_a_clear_error(tmp_path: Path) -> None:
 
 
 def test_point_tokens_keep_where_the_points_are() -> None:
-    from bimanualshift.priors.diffusion.modeling_diffusion import PointEncoder
+    from bimanualshift.priors.chunk_actions import PointEncoder
 
     enc = PointEncoder(voxel_size=8, max_points=16, dim=8, cells=2)
     voxels = torch.zeros(1, 4, 8, 8, 8)

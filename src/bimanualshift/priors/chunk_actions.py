@@ -40,11 +40,71 @@ class PointCloudChunkConfig(PriorConfig):
         return CHUNK_ACTION_DIM
 
 
+class PointEncoder(nn.Module):
+    """PointNet over the occupied voxels: (xyz in [-1, 1], rgb) -> shared MLP, then max-pooled per spatial cell.
+
+    A single global max-pool cannot say *where* things are precisely enough for keyframe targets a few
+    centimetres wide; pooling into ``cells``^3 cells of the grid keeps a coarse layout (one token per cell, with a
+    learned cell embedding) that the denoiser cross-attends to. The global max over all cells is the visual
+    feature the Manager reads.
+    """
+
+    def __init__(self, voxel_size: int, max_points: int, dim: int, cells: int = 4) -> None:
+        super().__init__()
+        self.max_points, self.cells, self.dim = max_points, max(cells, 1), dim
+        coords = torch.stack(torch.meshgrid(*[torch.linspace(-1, 1, voxel_size)] * 3, indexing="ij"))
+        self.register_buffer("coords", coords.flatten(1).T.contiguous(), persistent=False)  # (S^3, 3)
+        cell_of = (torch.arange(voxel_size) * self.cells // voxel_size)
+        cell = torch.stack(torch.meshgrid(cell_of, cell_of, cell_of, indexing="ij")).flatten(1)
+        self.register_buffer("cell", (cell[0] * self.cells + cell[1]) * self.cells + cell[2], persistent=False)
+        # Fixed tie-breaking noise: which voxels are kept when more than max_points are occupied is random but
+        # the same on every call, so a prediction does not depend on a global RNG.
+        tie = torch.rand(voxel_size**3, generator=torch.Generator().manual_seed(0))
+        self.register_buffer("tie", tie, persistent=False)
+        self.mlp = nn.Sequential(nn.Linear(6, dim // 2), nn.GELU(), nn.Linear(dim // 2, dim), nn.GELU(),
+                                 nn.Linear(dim, dim))
+        self.cell_embedding = nn.Parameter(torch.randn(self.cells**3, dim) * 0.02)
+
+    def forward(self, voxels: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """(B, 4, S, S, S) -> cell tokens (B, cells^3, dim) and the global feature (B, dim)."""
+        b = voxels.shape[0]
+        flat = voxels.flatten(2)  # (B, 4, S^3)
+        occupied = flat[:, 0] > 0.5
+        k = min(self.max_points, flat.shape[-1])
+        score = occupied.float() * 2 + self.tie  # occupied first, then a fixed random order
+        index = score.topk(k, dim=-1).indices  # (B, k)
+        picked_occ = occupied.gather(1, index)
+        xyz = self.coords[index]  # (B, k, 3)
+        rgb = flat[:, 1:].gather(2, index[:, None].expand(b, 3, k)).transpose(1, 2)
+        features = self.mlp(torch.cat([xyz, rgb], dim=-1))
+        features = features.masked_fill(~picked_occ[..., None], float("-inf"))
+        n_cells = self.cells**3
+        pooled = torch.full((b, n_cells, self.dim), float("-inf"))
+        cells = self.cell[index][..., None].expand(b, k, self.dim)
+        pooled = pooled.scatter_reduce(1, cells, features, reduce="amax", include_self=True)
+        pooled = torch.where(torch.isfinite(pooled), pooled, torch.zeros_like(pooled))  # empty cell -> 0
+        global_feature = features.amax(1)
+        global_feature = torch.where(torch.isfinite(global_feature), global_feature, torch.zeros_like(global_feature))
+        return pooled + self.cell_embedding, global_feature
+
+
 class PointCloudChunkPrior(UnimanualPrior):
-    """A prior over a point-cloud observation that predicts a chunk of normalised actions; subclasses call
-    ``register_action_range`` in their constructor."""
+    """A prior over a point-cloud observation that predicts a chunk of normalised actions. It builds the point
+    encoder and the observation tokens (point cells, proprioception, instruction) of width ``dim``; subclasses
+    add their heads and call ``register_action_range``."""
 
     proprio_weight = "obs_tokens.proprio.weight"  # the input layer of the proprioception (widened by the baselines)
+
+    def __init__(self, config: PointCloudChunkConfig, dim: int) -> None:
+        super().__init__(config)
+        c = config
+        self.grid = VoxelGrid(tuple(c.bounds), c.voxel_size)
+        self.points = PointEncoder(c.voxel_size, c.max_points, c.point_dim, c.cells)
+        self.obs_tokens = nn.ModuleDict({
+            "points": nn.Linear(c.point_dim, dim),
+            "proprio": nn.Linear(c.proprio_dim + 1, dim),
+            "text": nn.Linear(c.text_dim, dim),
+        })
 
     @property
     def feature_dim(self) -> int:

@@ -13,7 +13,6 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
-from bimanualshift.geometry.voxels import VoxelGrid
 from bimanualshift.priors.act.configuration_act import ACTConfig
 from bimanualshift.priors.base import PriorOutput, register_prior
 from bimanualshift.priors.chunk_actions import (
@@ -23,7 +22,6 @@ from bimanualshift.priors.chunk_actions import (
     encode_actions,
     register_action_range,
 )
-from bimanualshift.priors.diffusion.modeling_diffusion import PointEncoder
 
 
 def _encoder(dim: int, heads: int, layers: int) -> nn.TransformerEncoder:
@@ -36,16 +34,9 @@ class ACTPolicy(PointCloudChunkPrior):
     config_class = ACTConfig
 
     def __init__(self, config: ACTConfig) -> None:
-        super().__init__(config)
+        super().__init__(config, config.dim)
         c = config
-        self.grid = VoxelGrid(tuple(c.bounds), c.voxel_size)
-        self.points = PointEncoder(c.voxel_size, c.max_points, c.point_dim, c.cells)
-        self.obs_tokens = nn.ModuleDict({
-            "points": nn.Linear(c.point_dim, c.dim),
-            "proprio": nn.Linear(c.proprio_dim + 1, c.dim),
-            "text": nn.Linear(c.text_dim, c.dim),
-            "latent": nn.Linear(c.latent_dim, c.dim),
-        })
+        self.obs_tokens["latent"] = nn.Linear(c.latent_dim, c.dim)
         self.policy_encoder = _encoder(c.dim, c.heads, c.encoder_layers)
         layer = nn.TransformerDecoderLayer(c.dim, c.heads, 2 * c.dim, dropout=0.0, batch_first=True, norm_first=True)
         self.decoder = nn.TransformerDecoder(layer, c.decoder_layers)
