@@ -58,3 +58,41 @@ def test_unstructured_ablation_skips_the_basis() -> None:
     x = inputs()
     _, h = policy.manager(x)
     torch.testing.assert_close(policy(x)["v"], h)
+
+
+def test_input_normalisation_standardises_and_round_trips_through_the_state_dict() -> None:
+    from bimanualshift.residual.manager import INPUT_STD_FLOOR
+
+    cfg = ResidualConfig(feature_dim=5, text_dim=8, hidden=16, normalise_inputs=True)
+    policy = ResidualPolicy(cfg, SkillBasis.from_verbs(FakeEncoder()))
+    x = inputs() * 10 + 3
+    policy.fit_normalisation(x)
+    torch.testing.assert_close(policy.input_mean, x.mean(0))
+    assert torch.all(policy.input_std >= INPUT_STD_FLOOR)
+    copy = ResidualPolicy(cfg, SkillBasis.from_verbs(FakeEncoder()))
+    copy.load_state_dict(policy.state_dict())  # the statistics travel with the weights
+    torch.testing.assert_close(copy.input_std, policy.input_std)
+    seen = []
+    copy.manager.register_forward_hook(lambda module, args, out: seen.append(args[0]))
+    copy(x)
+    torch.testing.assert_close(seen[0].mean(0), torch.zeros(x.shape[1]), atol=1e-5, rtol=0)
+    try:
+        tiny().fit_normalisation(x)
+    except ValueError as err:
+        assert "normalise_inputs=False" in str(err)
+    else:
+        raise AssertionError("a residual without normalisation must refuse statistics")
+
+
+def test_phase_one_hot_clamps_late_keyframes_into_the_last_slot() -> None:
+    from bimanualshift.residual.manager import phase_one_hot
+
+    out = phase_one_hot(torch.tensor([0, 2, 7]), 4)
+    torch.testing.assert_close(out, torch.tensor([[1.0, 0, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]))
+    cfg = ResidualConfig(feature_dim=5, text_dim=8, hidden=16, goal_dim=10, phase_dim=4)
+    policy = ResidualPolicy(cfg, SkillBasis.from_verbs(FakeEncoder()))
+    g = torch.Generator().manual_seed(1)
+    row = manager_inputs(torch.rand(3, 5, generator=g), torch.rand(3, 9, generator=g), torch.rand(3, 8, generator=g),
+                         torch.rand(3, 8, generator=g), torch.rand(3, 8, generator=g), torch.tensor([0, 1, 0]), 2,
+                         goal=torch.rand(3, 10, generator=g), phase=out)
+    assert row.shape[1] == policy.manager.in_dim and policy(row)["translation"].shape == (3, 3)

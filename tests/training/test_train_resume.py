@@ -92,6 +92,9 @@ def test_residual_training_resumes_keeps_prior_frozen_and_evaluates(demo_root: P
         assert torch.equal(value, prior_after[key]), key
 
     policy = load_bimanualshift(best, default_text_encoder())
+    rc = policy.residual.config
+    assert rc.goal_dim > 0 and rc.phase_dim > 0 and rc.normalise_inputs  # the defaults read the goal and phase
+    assert not torch.equal(policy.residual.input_std, torch.ones_like(policy.residual.input_std))  # fitted
     env = ManipulationEnv("push_two_buttons", image_size=64)
     try:
         record = rollout(env, policy, seed=200_000, max_keyframes=1)

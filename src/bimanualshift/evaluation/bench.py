@@ -78,7 +78,8 @@ def _request(cfg: BenchConfig, task: str, method: str) -> TrainRequest:
         overrides["init_from"] = str(earlier)
     return TrainRequest(task=task, data=f"{cfg.data}/train", validation_data=f"{cfg.data}/validation",
                         demos=cfg.demos, prior=cfg.prior, out=f"{cfg.runs}/{task}/{method}",
-                        steps=int(cfg.method_steps.get(method, cfg.residual_steps)), seed=cfg.seed,
+                        steps=int(cfg.method_steps.get(method, get_method(method).steps or cfg.residual_steps)),
+                        seed=cfg.seed,
                         overrides=overrides)
 
 

@@ -18,7 +18,7 @@ from bimanualshift.memory.bank import MemoryBank, Retrieval
 from bimanualshift.memory.reference import episode_key, reference_vector
 from bimanualshift.methods.stages import ArmStep, FrozenPriorStage, world_action
 from bimanualshift.priors.base import UnimanualPrior
-from bimanualshift.residual.manager import ResidualConfig, ResidualPolicy, manager_inputs
+from bimanualshift.residual.manager import ResidualConfig, ResidualPolicy, manager_inputs, phase_one_hot
 from bimanualshift.residual.skills import SkillBasis
 from bimanualshift.utils.io import atomic_write_json, atomic_writer
 
@@ -68,9 +68,12 @@ class BimanualShift:
             if self.memory is not None:
                 reference = torch.as_tensor(reference_vector(self.retrieval, obs.keyframe_index, i,
                                                              s.prior.base_action()[0].numpy()))[None]
+            rc = self.residual.config
+            goal = torch.as_tensor(s.goal)[None] if rc.goal_dim else None
+            phase = phase_one_hot(torch.tensor([obs.keyframe_index]), rc.phase_dim) if rc.phase_dim else None
             inputs = manager_inputs(
                 s.prior.features, torch.as_tensor(s.proprio)[None], torch.as_tensor(s.other_proprio)[None], text,
-                s.prior.base_action(), torch.tensor([i]), self.residual.config.num_arms, reference,
+                s.prior.base_action(), torch.tensor([i]), rc.num_arms, reference, goal, phase,
             )
             out = self.residual(inputs)
             position = s.prior.position[0].numpy() + out["translation"][0].numpy()

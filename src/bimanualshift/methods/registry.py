@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from bimanualshift.configs import RESIDUAL_STEPS
 from bimanualshift.evaluation.rollout import Policy
 
 
@@ -39,6 +40,7 @@ class MethodSpec:
     # Continual learning: the method can start from its own earlier run on another task (the request's
     # ``overrides["init_from"]`` names that run's folder).
     continual: bool = False
+    steps: int | None = None  # its default training steps (None: the benchmark's ``residual_steps``)
 
 
 METHODS: dict[str, MethodSpec] = {}
@@ -78,7 +80,7 @@ def _residual_method(name: str, description: str, **switches: Any) -> MethodSpec
         policy.name = name
         return policy
 
-    return MethodSpec(name, description, train, load, continual=True)
+    return MethodSpec(name, description, train, load, continual=True, steps=RESIDUAL_STEPS)
 
 
 def _frozen_prior_method(name: str, description: str, use_projection: bool) -> MethodSpec:

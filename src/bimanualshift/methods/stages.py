@@ -26,6 +26,7 @@ class ArmStep:
     proprio: np.ndarray  # (9,) arm frame + keyframe fraction
     other_proprio: np.ndarray  # (8,) the other arm, in this arm's frame
     prior: PriorOutput  # batch of one, arm frame
+    goal: np.ndarray  # (GOAL_GEOMETRY_DIM,) the goal's location in this arm's frame, from the projection
 
 
 class FrozenPriorStage:
@@ -51,7 +52,7 @@ class FrozenPriorStage:
         for arm in obs.scene.arm_names:
             proprio = np.r_[per_arm[arm].proprio, obs.keyframe_index / self.max_keyframes].astype(np.float32)
             out = self.prior.predict(torch.as_tensor(per_arm[arm].voxels)[None], torch.as_tensor(proprio)[None], text)
-            steps[arm] = ArmStep(frames[arm], proprio, per_arm[arm].other_proprio, out)
+            steps[arm] = ArmStep(frames[arm], proprio, per_arm[arm].other_proprio, out, per_arm[arm].goal)
         return steps
 
 

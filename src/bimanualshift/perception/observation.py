@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -11,6 +11,7 @@ from bimanualshift.geometry.cameras import depth_to_world_points
 from bimanualshift.geometry.frames import ArmFrame
 from bimanualshift.geometry.pixel_voxels import pixel_voxel_index, voxel_occupancy, voxelize_pixels
 from bimanualshift.geometry.voxels import VoxelGrid
+from bimanualshift.perception.goal_geometry import GOAL_GEOMETRY_DIM, goal_geometry, goal_world_points
 from bimanualshift.perception.projection import ArmProjection
 
 # Arm-frame workspace: 0.2-0.9 m ahead of the base, +-0.45 m to the side, from just below the table top
@@ -23,6 +24,8 @@ class ArmObservation:
     voxels: np.ndarray  # (4, S, S, S) float32 occupancy + rgb, arm frame
     proprio: np.ndarray  # (8,) position, quaternion, gripper open in the arm frame
     other_proprio: np.ndarray  # (8,) the other arm's proprio in this arm's frame; zeros for a single arm
+    # (GOAL_GEOMETRY_DIM,) the goal's location in this arm's frame (zeros without a projection or a seen goal)
+    goal: np.ndarray = field(default_factory=lambda: np.zeros(GOAL_GEOMETRY_DIM, np.float32))
 
 
 def world_point_cloud(obs: KeyframeObservation) -> tuple[np.ndarray, np.ndarray]:
@@ -53,7 +56,8 @@ class ArmObservationBuilder:
         self.projection = projection
 
     def build(self, obs: KeyframeObservation) -> dict[str, ArmObservation]:
-        masks = self.projection.masks_2d(obs) if self.projection else None
+        masks, goal_mask = self.projection.project(obs) if self.projection else (None, None)
+        goal_points = goal_world_points(obs, goal_mask) if goal_mask is not None else np.zeros((0, 3), np.float32)
         out = {}
         n = len(obs.scene.arm_names)
         for i, (arm, frame) in enumerate(arm_frames(obs).items()):
@@ -62,5 +66,6 @@ class ArmObservationBuilder:
             if masks is not None:
                 voxels *= voxel_occupancy(index, masks[arm], self.grid.size)
             other = proprio_in_arm_frame(obs.proprio[1 - i], frame) if n == 2 else np.zeros(8, np.float32)
-            out[arm] = ArmObservation(voxels, proprio_in_arm_frame(obs.proprio[i], frame), other)
+            out[arm] = ArmObservation(voxels, proprio_in_arm_frame(obs.proprio[i], frame), other,
+                                      goal_geometry(goal_points, frame, self.grid.bounds))
         return out

@@ -102,9 +102,15 @@ class ArmProjection:
 
     def masks_2d(self, obs: KeyframeObservation) -> dict[str, np.ndarray]:
         """Per arm, a (C, H, W) boolean mask of the pixels that arm's observation keeps."""
+        return self.project(obs)[0]
+
+    def project(self, obs: KeyframeObservation) -> tuple[dict[str, np.ndarray], np.ndarray]:
+        """Per arm, the (C, H, W) mask of the pixels that arm's observation keeps, and the goal object's own
+        (C, H, W) mask (for its location, see ``goal_geometry``)."""
         scene = obs.scene
         arms = scene.arm_names
         out = {arm: np.zeros(obs.depth.shape, dtype=bool) for arm in arms}
+        goal = np.zeros(obs.depth.shape, dtype=bool)
         prompts = [ARM_CLASS, *scene.goal_nouns, SUPPORT_CLASS]
         has_depth = obs.depth > 0  # False for NaN too
         for c, camera in enumerate(scene.camera_names):
@@ -121,13 +127,15 @@ class ArmProjection:
                     arm_masks.append(det.mask)
                 else:
                     shared |= det.mask
+                    if det.label in scene.goal_nouns:
+                        goal[c] |= det.mask
             if not any(d.label in scene.goal_nouns for d in detections):
                 self.diagnostics.no_goal_found += 1
             if not arm_masks:
                 self.diagnostics.no_arm_found += 1
             for arm, mask in self.assign_arms(arm_masks, obs, c, camera, has_depth[c]).items():
                 np.logical_or(mask, shared, out=out[arm][c])
-        return out
+        return out, goal
 
     def _anchors(self, obs: KeyframeObservation, c: int) -> dict[str, np.ndarray | None]:
         """Image-plane base anchors of camera c, cached: they change only when the camera or a base moves."""

@@ -22,6 +22,13 @@ class ResidualConfig:
     num_arms: int = 2
     structured: bool = True  # False: an MLP residual with no skill basis (ablation)
     reference_dim: int = 0  # width of the retrieved temporal reference; 0 = no retrieval (ablation)
+    goal_dim: int = 0  # width of the projection's goal geometry; 0 = not read (checkpoints from before it)
+    phase_dim: int = 0  # keyframe index as a one-hot of this width (the last slot takes the rest); 0 = none
+    # Standardise the Manager's input with statistics of the training inputs (stored with the weights).
+    normalise_inputs: bool = False
+
+
+INPUT_STD_FLOOR = 1e-2  # below this spread a column is treated as constant (e.g. one instruction's embedding)
 
 
 class Manager(nn.Module):
@@ -30,8 +37,8 @@ class Manager(nn.Module):
     def __init__(self, config: ResidualConfig, skill_dim: int) -> None:
         super().__init__()
         c = config
-        in_dim = (c.feature_dim + c.proprio_dim + c.other_proprio_dim + c.text_dim + c.base_action_dim + c.num_arms
-                  + c.reference_dim)
+        self.in_dim = in_dim = (c.feature_dim + c.proprio_dim + c.other_proprio_dim + c.text_dim + c.base_action_dim
+                                + c.num_arms + c.reference_dim + c.goal_dim + c.phase_dim)
         self.trunk = nn.Sequential(nn.Linear(in_dim, c.hidden), nn.GELU(), nn.Linear(c.hidden, c.hidden), nn.GELU())
         self.weights = nn.Linear(c.hidden, c.num_skills)
         self.compensation = nn.Linear(c.hidden, skill_dim)
@@ -51,11 +58,24 @@ class ResidualPolicy(nn.Module):
         self.basis = basis
         skill_dim = basis.z.shape[1]
         self.manager = Manager(config, skill_dim)
+        if config.normalise_inputs:
+            self.register_buffer("input_mean", torch.zeros(self.manager.in_dim))
+            self.register_buffer("input_std", torch.ones(self.manager.in_dim))
         self.g = nn.Linear(skill_dim, 6)
         nn.init.zeros_(self.g.weight)  # start as the identity: the prior's action unchanged
         nn.init.zeros_(self.g.bias)
 
+    @torch.no_grad()
+    def fit_normalisation(self, inputs: torch.Tensor) -> None:
+        """Set the input statistics from the training inputs; near-constant columns are only centred."""
+        if not self.config.normalise_inputs:
+            raise ValueError("this residual was built with normalise_inputs=False")
+        self.input_mean.copy_(inputs.mean(0))
+        self.input_std.copy_(inputs.std(0).clamp_min(INPUT_STD_FLOOR))
+
     def forward(self, inputs: torch.Tensor) -> dict[str, torch.Tensor]:
+        if self.config.normalise_inputs:
+            inputs = (inputs - self.input_mean) / self.input_std
         weights, compensation = self.manager(inputs)
         v = self.basis.combine(weights, compensation) if self.config.structured else compensation
         residual = self.g(v)
@@ -64,10 +84,21 @@ class ResidualPolicy(nn.Module):
 
 def manager_inputs(features: torch.Tensor, proprio: torch.Tensor, other_proprio: torch.Tensor,
                    text: torch.Tensor, base_action: torch.Tensor, arm_index: torch.Tensor, num_arms: int,
-                   reference: torch.Tensor | None = None) -> torch.Tensor:
+                   reference: torch.Tensor | None = None, goal: torch.Tensor | None = None,
+                   phase: torch.Tensor | None = None) -> torch.Tensor:
     """The Manager's input row: the arm's visual features, both arms' proprioception, the instruction, the
-    prior's own action, the arm's one-hot and (with retrieval) the retrieved temporal reference."""
+    prior's own action, the arm's one-hot, (with retrieval) the retrieved temporal reference and (when the
+    residual reads it) the goal's location from the projection and the keyframe index as a one-hot ``phase``."""
     parts = [features, proprio, other_proprio, text, base_action, nn.functional.one_hot(arm_index, num_arms).float()]
     if reference is not None:
         parts.append(reference)
+    if goal is not None:
+        parts.append(goal)
+    if phase is not None:
+        parts.append(phase)
     return torch.cat(parts, dim=-1)
+
+
+def phase_one_hot(keyframe: torch.Tensor, width: int) -> torch.Tensor:
+    """(N, width) the keyframe index as a one-hot; indices past the end share the last slot."""
+    return nn.functional.one_hot(keyframe.long().clamp(0, width - 1), width).float()

@@ -57,7 +57,7 @@ def with_extra_proprio(samples: ArmSamples, extra: np.ndarray) -> ArmSamples:
 
 def select_arms(samples: ArmSamples, arms: tuple[str, ...]) -> ArmSamples:
     keep = np.flatnonzero([a in arms for a in samples.arm])
-    return ArmSamples(**{k: ([v[i] for i in keep] if isinstance(v, list) else v[keep])
+    return ArmSamples(**{k: ([v[i] for i in keep] if isinstance(v, list) else v if v is None else v[keep])
                          for k, v in vars(samples).items()})
 
 

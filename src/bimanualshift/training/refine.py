@@ -214,9 +214,12 @@ def refine(cfg: RefineConfig, text_encoder: TextEncoder | None = None) -> Path:
         raise FileNotFoundError(f"the demos the checkpoint was trained on are gone: none for {task} under "
                                 f"{train_cfg['data']}")
     encoder = policy.text_encoder
-    train = residual_data(paths, stage, encoder, "prior outputs (demos)", memory=memory, own_memory=True)
+    goal, phase = residual.config.goal_dim > 0, residual.config.phase_dim
+    train = residual_data(paths, stage, encoder, "prior outputs (demos)", memory=memory, own_memory=True,
+                          goal_geometry=goal, phase_slots=phase)
     val_paths = list_episodes(train_cfg["validation_data"], task)
-    val = residual_data(val_paths, stage, encoder, "prior outputs (val)", memory=memory) if val_paths else train
+    val = residual_data(val_paths, stage, encoder, "prior outputs (val)", memory=memory,
+                        goal_geometry=goal, phase_slots=phase) if val_paths else train
     optimizer = make_lamb(residual.parameters(), lr=cfg.lr)
     lambda_corr = cfg.lambda_corr if corrections is not None else 0.0
 

@@ -16,6 +16,7 @@ import numpy as np
 import torch
 from safetensors.torch import load_file
 
+from bimanualshift.configs import RESIDUAL_STEPS
 from bimanualshift.data.episode import list_episodes
 from bimanualshift.encoders.text import TextEncoder, default_text_encoder, make_text_encoder
 from bimanualshift.geometry.frames import rotation_difference
@@ -23,8 +24,9 @@ from bimanualshift.memory.bank import MemoryBank, MemoryEntry
 from bimanualshift.memory.reference import REFERENCE_DIM, episode_key, reference_vector
 from bimanualshift.methods.bimanualshift import MEMORY_FILE, save_residual
 from bimanualshift.methods.stages import FrozenPriorStage
+from bimanualshift.perception.goal_geometry import GOAL_GEOMETRY_DIM, shift_goal_geometry
 from bimanualshift.priors.base import UnimanualPrior
-from bimanualshift.residual.manager import ResidualConfig, ResidualPolicy, manager_inputs
+from bimanualshift.residual.manager import ResidualConfig, ResidualPolicy, manager_inputs, phase_one_hot
 from bimanualshift.residual.skills import SkillBasis
 from bimanualshift.training.augment import random_shift, shift_voxels
 from bimanualshift.training.loop import run_training
@@ -43,7 +45,7 @@ class TrainConfig:
     validation_data: str = "data/bimanual_val"
     out: str = "runs/bimanualshift"
     demos: int = 20
-    steps: int = 1500
+    steps: int = RESIDUAL_STEPS
     batch_size: int = 4
     lr: float = 5e-4
     beta: float = 1.0  # weight of the rotation term in L_BC (Eq. 12)
@@ -59,6 +61,11 @@ class TrainConfig:
     # Continual learning: an earlier BimanualShift run (or its checkpoint) whose Manager, Z and G start this run
     # and whose memory bank entries join this task's, so earlier tasks stay retrievable.
     init_from: str = ""
+    # The projection's goal location (centroid and extent in the arm's frame) as a Manager input; needs the
+    # projection (the no-projection ablation reads zeros).
+    goal_geometry: bool = True
+    phase_slots: int = 25  # the keyframe index as a one-hot Manager input of this width (0: none)
+    normalise_inputs: bool = True  # standardise the Manager's inputs with the training inputs' statistics
     augment_copies: int = 0  # shifted copies of every demo keyframe, each through the frozen prior
     augment_max_voxels: int = 2
     seed: int = 0
@@ -75,7 +82,8 @@ class ResidualData:
 def residual_data(paths: list[Path], stage: FrozenPriorStage, text_encoder: TextEncoder, desc: str,
                   augment_copies: int = 0, augment_max_voxels: int = 0, seed: int = 0,
                   memory: MemoryBank | None = None, own_memory: bool = False, build_memory: float | None = None,
-                  task: str = "", earlier_memory: MemoryBank | None = None) -> ResidualData:
+                  task: str = "", earlier_memory: MemoryBank | None = None, goal_geometry: bool = False,
+                  phase_slots: int = 0) -> ResidualData:
     """Manager inputs and residual targets for every (keyframe, arm), from the frozen prior's outputs.
 
     With ``augment_copies`` > 0, each sample is also seen through that many whole-voxel translations of
@@ -124,7 +132,10 @@ def residual_data(paths: list[Path], stage: FrozenPriorStage, text_encoder: Text
         reference = None
         if memory is not None:
             reference = retrieved_references(samples, first_features, text, base_t, memory, own_memory)
-        inputs = manager_inputs(features_t, proprio, other, text, base_t, arm_index, len(ARM_ORDER), reference)
+        goal = torch.as_tensor(shift_goal_geometry(samples.goal, offsets)) if goal_geometry else None
+        phase = phase_one_hot(torch.as_tensor(samples.keyframe), phase_slots) if phase_slots else None
+        inputs = manager_inputs(features_t, proprio, other, text, base_t, arm_index, len(ARM_ORDER), reference, goal,
+                                phase)
         translation = torch.as_tensor(samples.action_pos + offsets) - base_t[:, :3]
         rotation = torch.as_tensor(np.stack([rotation_difference(t, b) for t, b in
                                              zip(samples.action_quat, base_t[:, 3:7].numpy())]), dtype=torch.float32)
@@ -237,19 +248,25 @@ def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Pat
         raise FileNotFoundError(f"no bimanual demos for {cfg.task} under {cfg.data}; run "
                                 f"`bimanualshift collect --task {cfg.task} --out {cfg.data}` first")
     rcfg = ResidualConfig(feature_dim=prior.feature_dim, text_dim=text_encoder.dim, structured=cfg.structured,
-                          reference_dim=REFERENCE_DIM if cfg.retrieval else 0)
+                          reference_dim=REFERENCE_DIM if cfg.retrieval else 0,
+                          goal_dim=GOAL_GEOMETRY_DIM if cfg.goal_geometry else 0, phase_dim=cfg.phase_slots,
+                          normalise_inputs=cfg.normalise_inputs)
     earlier_state, earlier_memory = load_earlier(cfg.init_from, rcfg, cfg.retrieval) if cfg.init_from else (None, None)
     train = residual_data(paths, stage, text_encoder, "prior outputs (train)", cfg.augment_copies,
                           cfg.augment_max_voxels, cfg.seed,
                           build_memory=cfg.retrieval_threshold if cfg.retrieval else None, task=cfg.task,
-                          earlier_memory=earlier_memory)
+                          earlier_memory=earlier_memory, goal_geometry=cfg.goal_geometry,
+                          phase_slots=cfg.phase_slots)
     memory = train.memory
     val_paths = list_episodes(cfg.validation_data, cfg.task)
-    val = residual_data(val_paths, stage, text_encoder, "prior outputs (val)", memory=memory) if val_paths else train
+    val = residual_data(val_paths, stage, text_encoder, "prior outputs (val)", memory=memory,
+                        goal_geometry=cfg.goal_geometry, phase_slots=cfg.phase_slots) if val_paths else train
     torch.manual_seed(cfg.seed)  # here, so how the prior was obtained cannot change the residual's init
     residual = ResidualPolicy(rcfg, SkillBasis.from_verbs(text_encoder))
     if earlier_state is not None:
-        residual.load_state_dict(earlier_state)
+        residual.load_state_dict(earlier_state)  # with the earlier task's input statistics: kept, not refit
+    elif rcfg.normalise_inputs:
+        residual.fit_normalisation(train.inputs)
     optimizer = make_lamb(residual.parameters(), lr=cfg.lr)
     checkpoint_meta = {"prior": cfg.prior, "use_projection": cfg.use_projection, "segmenter": cfg.segmenter,
                        "retrieval": cfg.retrieval,

@@ -29,6 +29,7 @@ class ArmSamples:
     keyframe: np.ndarray  # (N,)
     arm: list[str]
     other_proprio: np.ndarray  # (N, 8) the other arm's proprio in this arm's frame (zeros if single-arm)
+    goal: np.ndarray | None = None  # (N, GOAL_GEOMETRY_DIM) the goal's location in the arm's frame
 
     def __len__(self) -> int:
         return len(self.instructions)
@@ -57,6 +58,7 @@ def build_arm_samples(paths: list[Path], builder: ArmObservationBuilder, max_key
                 rows["keyframe"].append(k)
                 rows["arm"].append(arm)
                 rows["other_proprio"].append(per_arm[arm].other_proprio)
+                rows["goal"].append(per_arm[arm].goal)
     return ArmSamples(**{k: (v if k in ("instructions", "arm") else np.asarray(v)) for k, v in rows.items()})
 
 

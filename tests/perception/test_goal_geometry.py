@@ -1,0 +1,69 @@
+from pathlib import Path
+
+import numpy as np
+
+from bimanualshift.data.episode import read_episode
+from bimanualshift.data.frames import KeyframeObservation
+from bimanualshift.geometry.cameras import depth_to_world_points
+from bimanualshift.geometry.frames import ArmFrame
+from bimanualshift.geometry.voxels import VoxelGrid
+from bimanualshift.perception.goal_geometry import GOAL_GEOMETRY_DIM, goal_geometry, shift_goal_geometry
+from bimanualshift.perception.observation import DEFAULT_ARM_BOUNDS, ArmObservationBuilder
+from bimanualshift.perception.projection import ArmProjection
+from bimanualshift.perception.segmenters.simulator import SimulatorSegmenter
+
+BOUNDS = (-1.0, -1.0, -1.0, 1.0, 1.0, 1.0)
+
+
+def test_centroid_and_extent_in_the_arm_frame() -> None:
+    frame = ArmFrame((0.5, 0.0, 0.0))  # a base 0.5 m along world x
+    rng = np.random.default_rng(0)
+    points = rng.uniform([0.6, -0.1, 0.0], [0.8, 0.1, 0.1], size=(2000, 3))
+    geometry = goal_geometry(points, frame, BOUNDS)
+    expected = frame.points_to_arm(points)
+    np.testing.assert_allclose(geometry[:3], expected.mean(0), atol=1e-5)
+    np.testing.assert_allclose(geometry[3:6], np.percentile(expected, 5, axis=0), atol=1e-5)
+    np.testing.assert_allclose(geometry[6:9], np.percentile(expected, 95, axis=0), atol=1e-5)
+    assert geometry[9] == 1.0
+
+
+def test_points_outside_the_workspace_or_too_few_count_as_unseen() -> None:
+    frame = ArmFrame((0.0, 0.0, 0.0))
+    far = np.full((50, 3), 5.0)
+    np.testing.assert_array_equal(goal_geometry(far, frame, BOUNDS), np.zeros(GOAL_GEOMETRY_DIM))
+    np.testing.assert_array_equal(goal_geometry(np.zeros((3, 3)), frame, BOUNDS), np.zeros(GOAL_GEOMETRY_DIM))
+    mixed = np.r_[far, np.full((20, 3), 0.25)]  # the outliers are dropped, not averaged in
+    np.testing.assert_allclose(goal_geometry(mixed, frame, BOUNDS)[:3], frame.points_to_arm(np.full((1, 3), 0.25))[0],
+                               atol=1e-6)
+
+
+def test_shifting_moves_seen_goals_and_leaves_unseen_ones_zero() -> None:
+    seen = np.r_[np.arange(9, dtype=np.float32), 1.0]
+    unseen = np.zeros(GOAL_GEOMETRY_DIM, np.float32)
+    shifted = shift_goal_geometry(np.stack([seen, unseen]), np.array([[0.1, 0.0, -0.1], [0.1, 0.0, -0.1]]))
+    np.testing.assert_allclose(shifted[0, :3], seen[:3] + [0.1, 0.0, -0.1], atol=1e-6)
+    np.testing.assert_allclose(shifted[0, 6:9], seen[6:9] + [0.1, 0.0, -0.1], atol=1e-6)
+    assert shifted[0, 9] == 1.0
+    np.testing.assert_array_equal(shifted[1], unseen)
+
+
+def test_projection_locates_the_goal_object_of_a_real_scene(bimanual_episode_path: Path) -> None:
+    ep = read_episode(bimanual_episode_path)
+    obs = KeyframeObservation.from_episode(ep, 0)
+    builder = ArmObservationBuilder(VoxelGrid(DEFAULT_ARM_BOUNDS, 16), ArmProjection(SimulatorSegmenter()))
+    per_arm = builder.build(obs)
+    # Ground truth from the simulator's instance ids: every pixel of a button, back-projected.
+    buttons = [i for i, n in enumerate(ep.instance_names) if n.startswith("button")]
+    truth = np.concatenate([depth_to_world_points(obs.depth[c], obs.intrinsics[c], obs.extrinsics[c])[
+        np.isin(obs.instance[c], buttons) & (obs.depth[c] > 0)] for c in range(len(obs.depth))])
+    for arm in ep.arm_names:
+        frame = ArmFrame(tuple(ep.arm_bases[arm]))
+        geometry = per_arm[arm].goal
+        assert geometry[9] == 1.0
+        in_arm = frame.points_to_arm(truth)
+        inside = np.all((in_arm >= DEFAULT_ARM_BOUNDS[:3]) & (in_arm <= DEFAULT_ARM_BOUNDS[3:]), axis=1)
+        assert inside.sum() > 50
+        np.testing.assert_allclose(geometry[:3], in_arm[inside].mean(0), atol=0.01)
+    # Without a projection nothing is segmented, so the goal is not located.
+    plain = ArmObservationBuilder(VoxelGrid(DEFAULT_ARM_BOUNDS, 16)).build(obs)
+    assert not plain["left"].goal.any()
