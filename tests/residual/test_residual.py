@@ -1,4 +1,5 @@
 import numpy as np
+import pytest
 import torch
 
 from bimanualshift.residual.manager import ResidualConfig, ResidualPolicy, manager_inputs
@@ -84,15 +85,36 @@ def test_input_normalisation_standardises_and_round_trips_through_the_state_dict
         raise AssertionError("a residual without normalisation must refuse statistics")
 
 
-def test_phase_one_hot_clamps_late_keyframes_into_the_last_slot() -> None:
+def test_phase_one_hot_gives_each_arm_its_slots_and_clamps_late_keyframes() -> None:
     from bimanualshift.residual.manager import phase_one_hot
 
-    out = phase_one_hot(torch.tensor([0, 2, 7]), 4)
-    torch.testing.assert_close(out, torch.tensor([[1.0, 0, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]))
-    cfg = ResidualConfig(feature_dim=5, text_dim=8, hidden=16, goal_dim=10, phase_dim=4)
+    out = phase_one_hot(torch.tensor([0, 1, 7]), torch.tensor([0, 1, 0]), 4, 2)
+    torch.testing.assert_close(out, torch.tensor([[1.0, 0, 0, 0], [0, 0, 0, 1], [0, 1, 0, 0]]))
+    with pytest.raises(ValueError, match="does not split"):
+        phase_one_hot(torch.tensor([0]), torch.tensor([0]), 5, 2)
+    cfg = ResidualConfig(feature_dim=5, text_dim=8, hidden=16, goal_dim=10, phase_dim=4, geometric_skip=True,
+                         read_prior_features=False)
     policy = ResidualPolicy(cfg, SkillBasis.from_verbs(FakeEncoder()))
     g = torch.Generator().manual_seed(1)
     row = manager_inputs(torch.rand(3, 5, generator=g), torch.rand(3, 9, generator=g), torch.rand(3, 8, generator=g),
                          torch.rand(3, 8, generator=g), torch.rand(3, 8, generator=g), torch.tensor([0, 1, 0]), 2,
                          goal=torch.rand(3, 10, generator=g), phase=out)
     assert row.shape[1] == policy.manager.in_dim and policy(row)["translation"].shape == (3, 3)
+
+
+def test_manager_without_prior_features_ignores_them_and_the_skip_reads_the_geometry() -> None:
+    cfg = ResidualConfig(feature_dim=5, text_dim=8, hidden=16, goal_dim=10, phase_dim=4, geometric_skip=True,
+                         read_prior_features=False)
+    manager = ResidualPolicy(cfg, SkillBasis.from_verbs(FakeEncoder())).manager
+    layout = cfg.layout()
+    assert layout["phase"].stop == manager.in_dim
+    x = torch.rand(2, manager.in_dim, generator=torch.Generator().manual_seed(2))
+    changed = x.clone()
+    changed[:, layout["features"]] += 5.0
+    for a, b in zip(manager(x), manager(changed)):
+        torch.testing.assert_close(a, b)  # the prior's features do not reach the Manager
+    moved = x.clone()
+    moved[:, layout["goal"]] += 1.0
+    _, h = manager(x)
+    _, h_moved = manager(moved)
+    assert not torch.allclose(h, h_moved)

@@ -70,7 +70,8 @@ class BimanualShift:
                                                              s.prior.base_action()[0].numpy()))[None]
             rc = self.residual.config
             goal = torch.as_tensor(s.goal)[None] if rc.goal_dim else None
-            phase = phase_one_hot(torch.tensor([obs.keyframe_index]), rc.phase_dim) if rc.phase_dim else None
+            phase = (phase_one_hot(torch.tensor([obs.keyframe_index]), torch.tensor([i]), rc.phase_dim, rc.num_arms)
+                     if rc.phase_dim else None)
             inputs = manager_inputs(
                 s.prior.features, torch.as_tensor(s.proprio)[None], torch.as_tensor(s.other_proprio)[None], text,
                 s.prior.base_action(), torch.tensor([i]), rc.num_arms, reference, goal, phase,
@@ -130,6 +131,7 @@ def load_bimanualshift(directory: str | Path, text_encoder: TextEncoder | None =
     residual.load_state_dict(load_file(str(directory / "model.safetensors")))
     memory = MemoryBank.load(directory / MEMORY_FILE) if rcfg.reference_dim > 0 else None
     stage = FrozenPriorStage(prior, text_encoder, use_projection=cfg.get("use_projection", True),
+                             locate_goal=rcfg.goal_dim > 0,
                              segmenter=cfg.get("segmenter", "simulator"),
                              segmenter_options=cfg.get("segmenter_options"))
     return BimanualShift(stage, residual, memory, residual_encoder)

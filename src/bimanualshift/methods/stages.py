@@ -32,13 +32,16 @@ class ArmStep:
 class FrozenPriorStage:
     def __init__(self, prior: UnimanualPrior, text_encoder: TextEncoder, use_projection: bool = True,
                  max_keyframes: int = 25, segmenter: str = "simulator",
-                 segmenter_options: dict[str, str] | None = None) -> None:
+                 segmenter_options: dict[str, str] | None = None, locate_goal: bool = False) -> None:
         self.prior = prior.freeze()
         self.text_encoder = text_encoder
         cfg = prior.config
-        # The arm-conditioned projection is this stage's observation path; the ablation turns it off.
-        projection = ArmProjection(make_segmenter(segmenter, **(segmenter_options or {}))) if use_projection else None
-        self.builder = ArmObservationBuilder(VoxelGrid(tuple(cfg.bounds), cfg.voxel_size), projection)
+        # The arm-conditioned projection is this stage's observation path; the ablation turns its masking off, and
+        # keeps the segmentation only where the goal's location is wanted (``locate_goal``).
+        segmented = use_projection or locate_goal
+        projection = ArmProjection(make_segmenter(segmenter, **(segmenter_options or {}))) if segmented else None
+        self.builder = ArmObservationBuilder(VoxelGrid(tuple(cfg.bounds), cfg.voxel_size), projection,
+                                             mask_voxels=use_projection)
         self.max_keyframes = max_keyframes
 
     def text(self, instruction: str) -> torch.Tensor:

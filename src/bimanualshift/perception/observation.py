@@ -48,12 +48,14 @@ class ArmObservationBuilder:
     """Builds each arm's voxel observation, through the arm-conditioned projection when one is given.
 
     With a projection, an arm's observation is V * M_3D (Eq. 1): the voxelised scene in the arm's frame, with
-    every voxel that none of the arm's kept pixels (itself, the goal, the support) falls in set to zero.
+    every voxel that none of the arm's kept pixels (itself, the goal, the support) falls in set to zero; its
+    goal mask also gives the goal's location (``ArmObservation.goal``).
     """
 
-    def __init__(self, grid: VoxelGrid, projection: ArmProjection | None = None) -> None:
+    def __init__(self, grid: VoxelGrid, projection: ArmProjection | None = None, mask_voxels: bool = True) -> None:
         self.grid = grid
         self.projection = projection
+        self.mask_voxels = mask_voxels  # False: segment only to locate the goal, the voxels stay global
 
     def build(self, obs: KeyframeObservation) -> dict[str, ArmObservation]:
         masks, goal_mask = self.projection.project(obs) if self.projection else (None, None)
@@ -63,7 +65,7 @@ class ArmObservationBuilder:
         for i, (arm, frame) in enumerate(arm_frames(obs).items()):
             index = pixel_voxel_index(obs.depth, obs.intrinsics, obs.extrinsics, self.grid, frame.world_to_base)
             voxels = voxelize_pixels(index, obs.rgb, self.grid.size)
-            if masks is not None:
+            if masks is not None and self.mask_voxels:
                 voxels *= voxel_occupancy(index, masks[arm], self.grid.size)
             other = proprio_in_arm_frame(obs.proprio[1 - i], frame) if n == 2 else np.zeros(8, np.float32)
             out[arm] = ArmObservation(voxels, proprio_in_arm_frame(obs.proprio[i], frame), other,

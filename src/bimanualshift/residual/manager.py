@@ -23,9 +23,24 @@ class ResidualConfig:
     structured: bool = True  # False: an MLP residual with no skill basis (ablation)
     reference_dim: int = 0  # width of the retrieved temporal reference; 0 = no retrieval (ablation)
     goal_dim: int = 0  # width of the projection's goal geometry; 0 = not read (checkpoints from before it)
-    phase_dim: int = 0  # keyframe index as a one-hot of this width (the last slot takes the rest); 0 = none
+    phase_dim: int = 0  # (arm, keyframe index) as one one-hot of this width (num_arms x slots); 0 = none
     # Standardise the Manager's input with statistics of the training inputs (stored with the weights).
     normalise_inputs: bool = False
+    # The Manager's trunk reads the prior's pooled visual features (False: the goal geometry is its visual input).
+    read_prior_features: bool = True
+    # h gains a linear path from the geometric inputs (goal, own proprio, the prior's action, arm-keyframe one-hot).
+    geometric_skip: bool = False
+
+    def layout(self) -> dict[str, slice]:
+        """Where each part of ``manager_inputs``'s row lies."""
+        widths = {"features": self.feature_dim, "proprio": self.proprio_dim, "other_proprio": self.other_proprio_dim,
+                  "text": self.text_dim, "base_action": self.base_action_dim, "arm": self.num_arms,
+                  "reference": self.reference_dim, "goal": self.goal_dim, "phase": self.phase_dim}
+        out, start = {}, 0
+        for name, width in widths.items():
+            out[name] = slice(start, start + width)
+            start += width
+        return out
 
 
 INPUT_STD_FLOOR = 1e-2  # below this spread a column is treated as constant (e.g. one instruction's embedding)
@@ -37,15 +52,29 @@ class Manager(nn.Module):
     def __init__(self, config: ResidualConfig, skill_dim: int) -> None:
         super().__init__()
         c = config
-        self.in_dim = in_dim = (c.feature_dim + c.proprio_dim + c.other_proprio_dim + c.text_dim + c.base_action_dim
-                                + c.num_arms + c.reference_dim + c.goal_dim + c.phase_dim)
-        self.trunk = nn.Sequential(nn.Linear(in_dim, c.hidden), nn.GELU(), nn.Linear(c.hidden, c.hidden), nn.GELU())
+        layout = c.layout()
+        self.in_dim = layout["phase"].stop
+        columns = torch.arange(self.in_dim)
+        if not c.read_prior_features:
+            columns = columns[layout["features"].stop:]
+        self.register_buffer("trunk_columns", columns, persistent=False)
+        self.trunk = nn.Sequential(nn.Linear(len(columns), c.hidden), nn.GELU(), nn.Linear(c.hidden, c.hidden),
+                                   nn.GELU())
         self.weights = nn.Linear(c.hidden, c.num_skills)
         self.compensation = nn.Linear(c.hidden, skill_dim)
+        self.skip: nn.Linear | None = None
+        if c.geometric_skip:
+            parts = ("goal", "proprio", "base_action", "phase")
+            skip = torch.cat([torch.arange(self.in_dim)[layout[k]] for k in parts])
+            self.register_buffer("skip_columns", skip, persistent=False)
+            self.skip = nn.Linear(len(skip), skill_dim)
 
     def forward(self, inputs: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        x = self.trunk(inputs)
-        return self.weights(x).softmax(-1), self.compensation(x)
+        x = self.trunk(inputs[:, self.trunk_columns])
+        compensation = self.compensation(x)
+        if self.skip is not None:  # a linear map of where the goal, the arm and the prior's proposal are
+            compensation = compensation + self.skip(inputs[:, self.skip_columns])
+        return self.weights(x).softmax(-1), compensation
 
 
 class ResidualPolicy(nn.Module):
@@ -88,7 +117,7 @@ def manager_inputs(features: torch.Tensor, proprio: torch.Tensor, other_proprio:
                    phase: torch.Tensor | None = None) -> torch.Tensor:
     """The Manager's input row: the arm's visual features, both arms' proprioception, the instruction, the
     prior's own action, the arm's one-hot, (with retrieval) the retrieved temporal reference and (when the
-    residual reads it) the goal's location from the projection and the keyframe index as a one-hot ``phase``."""
+    residual reads them) the goal's location from the projection and the (arm, keyframe) one-hot ``phase``."""
     parts = [features, proprio, other_proprio, text, base_action, nn.functional.one_hot(arm_index, num_arms).float()]
     if reference is not None:
         parts.append(reference)
@@ -99,6 +128,11 @@ def manager_inputs(features: torch.Tensor, proprio: torch.Tensor, other_proprio:
     return torch.cat(parts, dim=-1)
 
 
-def phase_one_hot(keyframe: torch.Tensor, width: int) -> torch.Tensor:
-    """(N, width) the keyframe index as a one-hot; indices past the end share the last slot."""
-    return nn.functional.one_hot(keyframe.long().clamp(0, width - 1), width).float()
+def phase_one_hot(keyframe: torch.Tensor, arm_index: torch.Tensor, width: int, num_arms: int) -> torch.Tensor:
+    """(N, width) the (arm, keyframe index) pair as one one-hot over ``num_arms`` blocks of ``width // num_arms``
+    slots: each arm's keyframes get their own slots. Keyframes past the end share their arm's last slot."""
+    slots = width // num_arms
+    if slots < 1 or slots * num_arms != width:
+        raise ValueError(f"a phase one-hot of width {width} does not split into {num_arms} arms' blocks")
+    index = arm_index.long() * slots + keyframe.long().clamp(0, slots - 1)
+    return nn.functional.one_hot(index, width).float()

@@ -214,7 +214,7 @@ def refine(cfg: RefineConfig, text_encoder: TextEncoder | None = None) -> Path:
         raise FileNotFoundError(f"the demos the checkpoint was trained on are gone: none for {task} under "
                                 f"{train_cfg['data']}")
     encoder = policy.text_encoder
-    goal, phase = residual.config.goal_dim > 0, residual.config.phase_dim
+    goal, phase = residual.config.goal_dim > 0, residual.config.phase_dim // residual.config.num_arms
     train = residual_data(paths, stage, encoder, "prior outputs (demos)", memory=memory, own_memory=True,
                           goal_geometry=goal, phase_slots=phase)
     val_paths = list_episodes(train_cfg["validation_data"], task)

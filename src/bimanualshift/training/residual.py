@@ -64,8 +64,11 @@ class TrainConfig:
     # The projection's goal location (centroid and extent in the arm's frame) as a Manager input; needs the
     # projection (the no-projection ablation reads zeros).
     goal_geometry: bool = True
-    phase_slots: int = 25  # the keyframe index as a one-hot Manager input of this width (0: none)
+    phase_slots: int = 25  # keyframe slots per arm of the (arm, keyframe) one-hot Manager input (0: none)
     normalise_inputs: bool = True  # standardise the Manager's inputs with the training inputs' statistics
+    # The Manager's trunk reads the frozen prior's pooled features too; off: they let it memorise the demos.
+    prior_features: bool = False
+    geometric_skip: bool = True  # a linear path from goal, proprio, prior action and phase into h
     augment_copies: int = 0  # shifted copies of every demo keyframe, each through the frozen prior
     augment_max_voxels: int = 2
     seed: int = 0
@@ -133,7 +136,8 @@ def residual_data(paths: list[Path], stage: FrozenPriorStage, text_encoder: Text
         if memory is not None:
             reference = retrieved_references(samples, first_features, text, base_t, memory, own_memory)
         goal = torch.as_tensor(shift_goal_geometry(samples.goal, offsets)) if goal_geometry else None
-        phase = phase_one_hot(torch.as_tensor(samples.keyframe), phase_slots) if phase_slots else None
+        phase = (phase_one_hot(torch.as_tensor(samples.keyframe), arm_index, phase_slots * len(ARM_ORDER),
+                               len(ARM_ORDER)) if phase_slots else None)
         inputs = manager_inputs(features_t, proprio, other, text, base_t, arm_index, len(ARM_ORDER), reference, goal,
                                 phase)
         translation = torch.as_tensor(samples.action_pos + offsets) - base_t[:, :3]
@@ -241,7 +245,8 @@ def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Pat
     atomic_write_json(out / "train_config.json", asdict(cfg))
     text_encoder = make_text_encoder(cfg.text_encoder)  # the prior keeps the encoder it was pretrained with
     prior = prior if prior is not None else UnimanualPrior.from_pretrained(cfg.prior)
-    stage = FrozenPriorStage(prior, default_text_encoder(), use_projection=cfg.use_projection, segmenter=cfg.segmenter,
+    stage = FrozenPriorStage(prior, default_text_encoder(), use_projection=cfg.use_projection,
+                             locate_goal=cfg.goal_geometry, segmenter=cfg.segmenter,
                              segmenter_options=segmenter_options(cfg.grounding_dino, cfg.sam))
     paths = list_episodes(cfg.data, cfg.task)[: cfg.demos]
     if not paths:
@@ -249,8 +254,9 @@ def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Pat
                                 f"`bimanualshift collect --task {cfg.task} --out {cfg.data}` first")
     rcfg = ResidualConfig(feature_dim=prior.feature_dim, text_dim=text_encoder.dim, structured=cfg.structured,
                           reference_dim=REFERENCE_DIM if cfg.retrieval else 0,
-                          goal_dim=GOAL_GEOMETRY_DIM if cfg.goal_geometry else 0, phase_dim=cfg.phase_slots,
-                          normalise_inputs=cfg.normalise_inputs)
+                          goal_dim=GOAL_GEOMETRY_DIM if cfg.goal_geometry else 0,
+                          phase_dim=cfg.phase_slots * len(ARM_ORDER), normalise_inputs=cfg.normalise_inputs,
+                          read_prior_features=cfg.prior_features, geometric_skip=cfg.geometric_skip)
     earlier_state, earlier_memory = load_earlier(cfg.init_from, rcfg, cfg.retrieval) if cfg.init_from else (None, None)
     train = residual_data(paths, stage, text_encoder, "prior outputs (train)", cfg.augment_copies,
                           cfg.augment_max_voxels, cfg.seed,
