@@ -357,6 +357,13 @@ def cmd_demo(args: argparse.Namespace) -> None:
     run_demo(_config_from_args(DemoConfig, args))
 
 
+def cmd_plot(args: argparse.Namespace) -> None:
+    from bimanualshift.evaluation.bench import redraw_plots
+
+    for folder in args.folders:
+        print(f"drew {', '.join(str(p) for p in redraw_plots(folder))}")
+
+
 def cmd_report(args: argparse.Namespace) -> None:
     from bimanualshift.evaluation.markdown import render_readme
 
@@ -478,6 +485,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--results", default="results", help="where results/<study>/ goes (default: results)")
     _add_config_overrides(p, BenchConfig, skip=("out", "runs"))
     p.set_defaults(func=cmd_study)
+
+    p = sub.add_parser("plot", help="redraw a bench or study folder's plots (success.png, stages.png) from its "
+                                    "summary.json, without running anything")
+    p.add_argument("folders", nargs="+", help="result folders holding a summary.json, e.g. results/long_horizon")
+    p.set_defaults(func=cmd_plot)
 
     p = sub.add_parser("eval", help="evaluate a method on held-out seeds")
     p.add_argument("--method", default="bimanualshift",

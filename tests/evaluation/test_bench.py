@@ -35,6 +35,28 @@ def test_multi_stage_tasks_report_stage_wise_success() -> None:
     assert "stages" not in plain and stage_table([plain]) == ""
 
 
+def test_plots_are_redrawn_from_a_summary_and_stage_lines_only_for_staged_tasks(tmp_path: Path) -> None:
+    from bimanualshift.evaluation.bench import redraw_plots
+
+    staged = [{"task": "take_tray_out_of_oven", "method": "m", "seed": s, "success": done == 2, "stages_done": done}
+              for s, done in enumerate([0, 1, 2])]
+    rows = bench_rows(staged, ["m"], ["take_tray_out_of_oven"], demos=5)
+    (tmp_path / "summary.json").write_text(json.dumps({"rows": rows, "study": "x"}))
+    drawn = redraw_plots(tmp_path)
+    assert [p.name for p in drawn] == ["success.png", "stages.png"]
+    assert all(p.read_bytes().startswith(b"\x89PNG") for p in drawn)
+    plain = tmp_path / "plain"
+    plain.mkdir()
+    rows = bench_rows([{"task": "lift_ball", "method": "m", "seed": 0, "success": True}], ["m"], ["lift_ball"], 5)
+    (plain / "summary.json").write_text(json.dumps({"rows": rows}))
+    assert [p.name for p in redraw_plots(plain)] == ["success.png"]
+    with pytest.raises(FileNotFoundError, match="no summary.json"):
+        redraw_plots(tmp_path / "nowhere")
+    (plain / "summary.json").write_text(json.dumps({"rows": [{"metric": 1}]}))
+    with pytest.raises(ValueError, match="not a bench result"):
+        redraw_plots(plain)
+
+
 def test_registry_names_every_ablation_and_refuses_unknown_methods() -> None:
     assert {"bimanualshift", "no_projection", "no_residual", "no_retrieval", "unstructured"} <= set(METHODS)
     with pytest.raises(ValueError, match="unknown method 'act'"):

@@ -16,7 +16,7 @@ from dataclasses import asdict, replace
 from pathlib import Path
 from typing import Any
 
-from bimanualshift.evaluation.bench import BenchConfig, bar_plot, bench_table, run_bench, stage_table
+from bimanualshift.evaluation.bench import BenchConfig, bench_table, draw_plots, run_bench, stage_table
 from bimanualshift.utils.io import atomic_write_text
 
 BASELINES = ["bimanualshift", "peract_lf", "dp_lf", "scratch_voxel", "scratch_dp", "scratch_act", "anybimanual"]
@@ -84,7 +84,7 @@ def run_study(name: str, overrides: dict[str, Any] | None = None, root: str = "r
     out = Path(root) / name
     out.mkdir(parents=True, exist_ok=True)
     atomic_write_text(out / "table.md", bench_table(rows) + "\n" + stage_table(rows))
-    bar_plot(out / "success.png", rows, f"study {name}")
+    draw_plots(out, rows, f"study {name}")
     return write_result(out / "summary.json", command, seeds, started, rows, bench=True, study=name, runs=configs,
                         notes="rows carry the run they come from; each run's own folder has its episodes and "
                               "videos; wall time covers this invocation only")
