@@ -16,6 +16,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+from bimanualshift.configs import RESIDUAL_STEPS
 from bimanualshift.data.collect import collect
 from bimanualshift.data.seeds import split_seeds
 from bimanualshift.encoders.text import default_text_encoder
@@ -38,7 +39,7 @@ class DemoConfig:
     validation_demos: int = 5
     test_episodes: int = 20
     max_keyframes: int = 6  # the expert needs 3; failing rollouts stop at twice that
-    residual_steps: int = 1500
+    residual_steps: int = RESIDUAL_STEPS
     prior: str = str(SHIPPED_PRIOR)
     workdir: str = "runs/demo"
     results: str = "results/demo"
