@@ -50,7 +50,7 @@ def test_other_results_get_a_table_of_their_scalar_fields() -> None:
     })
     lines = table.splitlines()
     assert lines[0] == "| task | workers | episodes per min |"
-    assert lines[2:4] == ["| lift_ball | 1 | 6.250 |", "| lift_ball | 2 | 11.500 |"]
+    assert lines[2:4] == ["| lift_ball | 1 | 6.25 |", "| lift_ball | 2 | 11.5 |"]
     assert "`python benchmarks/collection_speed.py` at commit `abcdef012345`" in table
 
 
@@ -96,5 +96,15 @@ def test_index_lists_every_result_file_including_study_runs(tmp_path: Path) -> N
         {**envelope, "bench": True, "rows": [{"task": "a", "method": "m", "success": 0.5, "ci95": [0.1, 0.9]}]}))
     index = render_index(tmp_path).read_text()
     assert "## few_shot/demos_5" in index and "## speed" in index
-    assert "| m | 50 (10–90) |" in index and "| x | 1.500 |" in index
+    assert "| m | 50 (10–90) |" in index and "| x | 1.5 |" in index
     assert render_readme(tmp_path / "README.md", tmp_path) == ["few_shot/demos_5", "speed"]  # blocks stay live
+
+
+def test_generic_table_gives_every_rows_fields_a_column() -> None:
+    from bimanualshift.evaluation.markdown import generic_table
+
+    result = {"rows": [{"what": "train", "seconds": 714.6}, {"what": "eval", "episodes_per_min": 5.0}],
+              "command": "c", "commit": "0" * 40, "created": "t", "machine": "m", "wall_time_s": 60, "notes": "n"}
+    lines = generic_table(result).splitlines()
+    assert lines[0] == "| what | seconds | episodes per min |"
+    assert lines[2] == "| train | 714.6 |  |" and lines[3] == "| eval |  | 5 |"

@@ -82,13 +82,19 @@ def priors_table(result: dict[str, Any]) -> str:
     return "\n".join([*lines, "", f"{episodes} test episodes per task. " + _footer(result)]) + "\n"
 
 
+def _number(x: float) -> str:
+    """At most three decimals, without trailing zeros: 714.6, 0.41, 1.046."""
+    return f"{x:.3f}".rstrip("0").rstrip(".")
+
+
 def generic_table(result: dict[str, Any]) -> str:
     """Any other result file: one column per scalar field of its rows (timings, projection quality, ...)."""
     rows = result["rows"]
-    columns = [k for k, v in rows[0].items() if isinstance(v, (str, int, float, bool))] if rows else []
+    # Rows may differ in their fields (a training row and a throughput row): every scalar field gets a column.
+    columns = list(dict.fromkeys(k for r in rows for k, v in r.items() if isinstance(v, (str, int, float, bool))))
     lines = ["| " + " | ".join(c.replace("_", " ") for c in columns) + " |", "|" + "---|" * len(columns)]
     for r in rows:
-        cells = [f"{r[c]:.3f}" if isinstance(r.get(c), float) else str(r.get(c, "")) for c in columns]
+        cells = [_number(r[c]) if isinstance(r.get(c), float) else str(r.get(c, "")) for c in columns]
         lines.append("| " + " | ".join(cells) + " |")
     lines.append("")
     lines.append(f"Produced by `{result['command']}` at commit `{result['commit'][:12]}` on {result['created']} "
