@@ -11,20 +11,21 @@ from __future__ import annotations
 import numpy as np
 
 from bimanualshift.data.frames import KeyframeObservation
-from bimanualshift.geometry.cameras import depth_to_world_points
 from bimanualshift.geometry.frames import ArmFrame
+from bimanualshift.perception.projection import CameraPoints
 
 GOAL_GEOMETRY_DIM = 3 + 3 + 3 + 1  # centroid, 5th and 95th percentile corners, found flag
 MIN_GOAL_POINTS = 10  # fewer back-projected goal points than this count as "goal not seen"
 
 
 def goal_world_points(obs: KeyframeObservation, goal_mask: np.ndarray) -> np.ndarray:
-    """(N, 3) world points of the goal pixels (``goal_mask`` is (C, H, W)) that have a valid depth."""
+    """(N, 3) world points of the goal pixels (``goal_mask`` is (C, H, W)) that have a valid depth, through the
+    projection's cached camera rays (only the goal's pixels are back-projected)."""
     parts = []
     for c in range(len(obs.depth)):
         mask = goal_mask[c] & (obs.depth[c] > 0)  # False for NaN depth too
         if mask.any():
-            parts.append(depth_to_world_points(obs.depth[c], obs.intrinsics[c], obs.extrinsics[c])[mask])
+            parts.append(CameraPoints(obs, c).at(mask))
     return np.concatenate(parts) if parts else np.zeros((0, 3), np.float32)
 
 
