@@ -96,7 +96,8 @@ class ResidualPolicy(nn.Module):
 
     @torch.no_grad()
     def fit_normalisation(self, inputs: torch.Tensor) -> None:
-        """Set the input statistics from the training inputs; near-constant columns are only centred."""
+        """Set the input statistics from the training inputs; a column spread less than INPUT_STD_FLOOR is divided
+        by the floor instead (a constant column, such as one task's instruction embedding, becomes zeros)."""
         if not self.config.normalise_inputs:
             raise ValueError("this residual was built with normalise_inputs=False")
         self.input_mean.copy_(inputs.mean(0))
