@@ -99,3 +99,16 @@ def test_rows_under_perturbations_report_relative_degradation() -> None:
     assert [(r["perturbation"], r["success"]) for r in rows] == [("none", 1.0), ("glare", 0.25)]
     assert rows[1]["degradation"] == 0.75 and "degradation" not in rows[0]
     assert "| m (glare) | 25 (" in bench_table(rows)
+
+
+def test_training_steps_come_from_the_method_unless_the_benchmark_says_otherwise() -> None:
+    from bimanualshift.configs import RESIDUAL_STEPS
+    from bimanualshift.evaluation.bench import DEFAULT_TRAIN_STEPS, _request
+
+    base = BenchConfig(tasks=["push_two_buttons"])
+    assert _request(base, "push_two_buttons", "bimanualshift").steps == RESIDUAL_STEPS
+    assert _request(base, "push_two_buttons", "peract_lf").steps == DEFAULT_TRAIN_STEPS
+    assert _request(base, "push_two_buttons", "scratch_voxel").steps == 3000  # the benchmark's per-method table
+    every = BenchConfig(tasks=["push_two_buttons"], residual_steps=2)
+    assert {_request(every, "push_two_buttons", m).steps for m in ("bimanualshift", "peract_lf")} == {2}
+    assert _request(every, "push_two_buttons", "scratch_voxel").steps == 3000

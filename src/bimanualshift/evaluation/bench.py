@@ -39,7 +39,7 @@ class BenchConfig:
     validation_demos: int = 5
     episodes: int = 100  # test seeds per task
     prior: str = "peract_suite"
-    residual_steps: int = 1500
+    residual_steps: int = 0  # training steps of every method; 0: each method's own (MethodSpec.steps, else 1500)
     method_steps: dict = field(default_factory=lambda: {"scratch_voxel": 3000})  # per-method training steps
     workers: int = 2
     data: str = "data/bench"
@@ -66,6 +66,8 @@ class BenchJob:
     perturbation: str = "none"
 
 
+DEFAULT_TRAIN_STEPS = 1500  # for methods that name no steps of their own
+
 _CACHE: dict[Any, Any] = {}
 
 
@@ -79,7 +81,8 @@ def _request(cfg: BenchConfig, task: str, method: str) -> TrainRequest:
         overrides["init_from"] = str(earlier)
     return TrainRequest(task=task, data=f"{cfg.data}/train", validation_data=f"{cfg.data}/validation",
                         demos=cfg.demos, prior=cfg.prior, out=f"{cfg.runs}/{task}/{method}",
-                        steps=int(cfg.method_steps.get(method, get_method(method).steps or cfg.residual_steps)),
+                        steps=int(cfg.method_steps.get(method) or cfg.residual_steps or get_method(method).steps
+                                  or DEFAULT_TRAIN_STEPS),
                         seed=cfg.seed,
                         overrides=overrides)
 

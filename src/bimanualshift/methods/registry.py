@@ -40,7 +40,7 @@ class MethodSpec:
     # Continual learning: the method can start from its own earlier run on another task (the request's
     # ``overrides["init_from"]`` names that run's folder).
     continual: bool = False
-    steps: int | None = None  # its default training steps (None: the benchmark's ``residual_steps``)
+    steps: int | None = None  # its default training steps (None: the benchmark's default)
 
 
 METHODS: dict[str, MethodSpec] = {}
