@@ -61,8 +61,8 @@ class TrainConfig:
     # Continual learning: an earlier BimanualShift run (or its checkpoint) whose Manager, Z and G start this run
     # and whose memory bank entries join this task's, so earlier tasks stay retrievable.
     init_from: str = ""
-    # The projection's goal location (centroid and extent in the arm's frame) as a Manager input; needs the
-    # projection (the no-projection ablation reads zeros).
+    # The goal's location (centroid and extent in the arm's frame, from the projection's goal segmentation) as a
+    # Manager input; with --use-projection false the goal is still segmented for it, only the masking is off.
     goal_geometry: bool = True
     phase_slots: int = 25  # keyframe slots per arm of the (arm, keyframe) one-hot Manager input (0: none)
     normalise_inputs: bool = True  # standardise the Manager's inputs with the training inputs' statistics
