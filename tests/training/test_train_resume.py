@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import pytest
@@ -95,6 +96,10 @@ def test_residual_training_resumes_keeps_prior_frozen_and_evaluates(demo_root: P
     rc = policy.residual.config
     assert rc.goal_dim > 0 and rc.phase_dim > 0 and rc.normalise_inputs  # the defaults read the goal and phase
     assert not torch.equal(policy.residual.input_std, torch.ones_like(policy.residual.input_std))  # fitted
+    gate = json.loads((tmp_path / "a" / "summary.json").read_text())["output_gate"]  # chosen on validation
+    assert torch.equal(policy.residual.output_scale, torch.tensor([gate["translation_scale"], gate["rotation_scale"]]))
+    assert json.loads((best / "config.json").read_text())["output_scale"]["translation_scale"] == gate[
+        "translation_scale"]
     env = ManipulationEnv("push_two_buttons", image_size=64)
     try:
         record = rollout(env, policy, seed=200_000, max_keyframes=1)

@@ -30,6 +30,9 @@ class ResidualConfig:
     read_prior_features: bool = True
     # h gains a linear path from the geometric inputs (goal, own proprio, the prior's action, arm-keyframe one-hot).
     geometric_skip: bool = False
+    # The residual's translation and rotation are scaled by factors chosen on validation demos after training
+    # (``output_scale``; 1 while training): where the prior is already precise, the residual is turned down.
+    output_gate: bool = False
 
     def layout(self) -> dict[str, slice]:
         """Where each part of ``manager_inputs``'s row lies."""
@@ -90,6 +93,8 @@ class ResidualPolicy(nn.Module):
         if config.normalise_inputs:
             self.register_buffer("input_mean", torch.zeros(self.manager.in_dim))
             self.register_buffer("input_std", torch.ones(self.manager.in_dim))
+        if config.output_gate:  # (translation, rotation) factors; see choose_output_scale
+            self.register_buffer("output_scale", torch.ones(2))
         self.g = nn.Linear(skill_dim, 6)
         nn.init.zeros_(self.g.weight)  # start as the identity: the prior's action unchanged
         nn.init.zeros_(self.g.bias)
@@ -109,7 +114,10 @@ class ResidualPolicy(nn.Module):
         weights, compensation = self.manager(inputs)
         v = self.basis.combine(weights, compensation) if self.config.structured else compensation
         residual = self.g(v)
-        return {"translation": residual[:, :3], "rotation": residual[:, 3:], "weights": weights, "v": v}
+        translation, rotation = residual[:, :3], residual[:, 3:]
+        if self.config.output_gate:
+            translation, rotation = translation * self.output_scale[0], rotation * self.output_scale[1]
+        return {"translation": translation, "rotation": rotation, "weights": weights, "v": v}
 
 
 def manager_inputs(features: torch.Tensor, proprio: torch.Tensor, other_proprio: torch.Tensor,

@@ -38,6 +38,7 @@ from bimanualshift.methods.bimanualshift import MEMORY_FILE, BimanualShift, load
 from bimanualshift.sim.env import ManipulationEnv
 from bimanualshift.training.loop import run_training
 from bimanualshift.training.optim import make_lamb
+from bimanualshift.training.output_gate import choose_output_scale, reset_output_scale
 from bimanualshift.training.residual import ResidualData, bc_loss, residual_data
 from bimanualshift.utils.io import atomic_write_json, atomic_writer
 
@@ -220,6 +221,7 @@ def refine(cfg: RefineConfig, text_encoder: TextEncoder | None = None) -> Path:
     val_paths = list_episodes(train_cfg["validation_data"], task)
     val = residual_data(val_paths, stage, encoder, "prior outputs (val)", memory=memory,
                         goal_geometry=goal, phase_slots=phase) if val_paths else train
+    reset_output_scale(residual)  # fine-tune the whole residual; its factors are chosen again afterwards
     optimizer = make_lamb(residual.parameters(), lr=cfg.lr)
     lambda_corr = cfg.lambda_corr if corrections is not None else 0.0
 
@@ -248,6 +250,14 @@ def refine(cfg: RefineConfig, text_encoder: TextEncoder | None = None) -> Path:
 
     result = run_training(out, residual, optimizer, cfg.steps, step_fn, cfg.seed, cfg.checkpoint_every,
                           validate, on_best, desc="refine residual")
+    gate = {}
+    if residual.config.output_gate and (out / "best" / "model.safetensors").is_file():
+        residual.load_state_dict(load_file(str(out / "best" / "model.safetensors")))
+        reset_output_scale(residual)
+        gate = {"output_gate": choose_output_scale(residual, val.inputs, val.translation, val.rotation)}
+        best = json.loads((out / "best" / "config.json").read_text())
+        save_residual(out / "best", residual, {**{k: v for k, v in best.items() if k not in ("type", "residual")},
+                                               "output_scale": gate["output_gate"]}, memory)
     summary = {
         **result, "wall_time_s": round(time.time() - started, 1), "scenes": len(records),
         "policy_successes": sum(r["policy_success"] for r in records),
@@ -255,6 +265,7 @@ def refine(cfg: RefineConfig, text_encoder: TextEncoder | None = None) -> Path:
         "correction_samples": 0 if corrections is None else len(corrections.inputs),
         "memory_entries": None if memory is None else len(memory),
         "inserted_into_memory": len(successes) if memory is not None else 0,
+        **gate,
     }
     atomic_write_json(out / "summary.json", summary)
     return out / "best"

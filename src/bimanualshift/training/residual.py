@@ -31,6 +31,7 @@ from bimanualshift.residual.skills import SkillBasis
 from bimanualshift.training.augment import random_shift, shift_voxels
 from bimanualshift.training.loop import run_training
 from bimanualshift.training.optim import make_lamb
+from bimanualshift.training.output_gate import choose_output_scale, reset_output_scale
 from bimanualshift.training.samples import ArmSamples, build_arm_samples
 from bimanualshift.utils.io import atomic_write_json
 
@@ -69,6 +70,9 @@ class TrainConfig:
     # The Manager's trunk reads the frozen prior's pooled features too; off: they let it memorise the demos.
     prior_features: bool = False
     geometric_skip: bool = True  # a linear path from goal, proprio, prior action and phase into h
+    # After training, scale the residual's translation and rotation by factors chosen on the validation demos
+    # (training/output_gate.py): the residual is turned down where the prior alone places keyframes better.
+    output_gate: bool = True
     augment_copies: int = 0  # shifted copies of every demo keyframe, each through the frozen prior
     augment_max_voxels: int = 2
     seed: int = 0
@@ -256,7 +260,8 @@ def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Pat
                           reference_dim=REFERENCE_DIM if cfg.retrieval else 0,
                           goal_dim=GOAL_GEOMETRY_DIM if cfg.goal_geometry else 0,
                           phase_dim=cfg.phase_slots * len(ARM_ORDER), normalise_inputs=cfg.normalise_inputs,
-                          read_prior_features=cfg.prior_features, geometric_skip=cfg.geometric_skip)
+                          read_prior_features=cfg.prior_features, geometric_skip=cfg.geometric_skip,
+                          output_gate=cfg.output_gate)
     earlier_state, earlier_memory = load_earlier(cfg.init_from, rcfg, cfg.retrieval) if cfg.init_from else (None, None)
     train = residual_data(paths, stage, text_encoder, "prior outputs (train)", cfg.augment_copies,
                           cfg.augment_max_voxels, cfg.seed,
@@ -271,6 +276,7 @@ def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Pat
     residual = ResidualPolicy(rcfg, SkillBasis.from_verbs(text_encoder))
     if earlier_state is not None:
         residual.load_state_dict(earlier_state)  # with the earlier task's input statistics: kept, not refit
+        reset_output_scale(residual)  # the earlier task's factors are chosen again for this one
     elif rcfg.normalise_inputs:
         residual.fit_normalisation(train.inputs)
     optimizer = make_lamb(residual.parameters(), lr=cfg.lr)
@@ -296,7 +302,17 @@ def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Pat
                           validate, on_best, desc="train residual")
     if (out / "best" / "model.safetensors").is_file():  # report on the checkpoint the run hands on
         residual.load_state_dict(load_file(str(out / "best" / "model.safetensors")))
+    gate = {}
+    if rcfg.output_gate:
+        reset_output_scale(residual)
+        ungated = translation_report(residual, val)
+        gate = {"output_gate": {**choose_output_scale(residual, val.inputs, val.translation, val.rotation),
+                                "validation_translation_error_ungated": ungated}}
+        best = json.loads((out / "best" / "config.json").read_text())
+        meta = {k: v for k, v in best.items() if k not in ("type", "residual")}
+        save_residual(out / "best", residual, {**meta, "output_scale": gate["output_gate"]}, memory)
     atomic_write_json(out / "summary.json", {**result, "wall_time_s": round(time.time() - started, 1),
                                              "train_samples": len(train.inputs),
-                                             "validation_translation_error": translation_report(residual, val)})
+                                             "validation_translation_error": translation_report(residual, val),
+                                             **gate})
     return out / "best"
