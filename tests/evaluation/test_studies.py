@@ -7,7 +7,7 @@ from dataclasses import replace
 import pytest
 
 from bimanualshift.evaluation.bench import bench_table
-from bimanualshift.evaluation.studies import STUDIES, study_runs
+from bimanualshift.evaluation.studies import STUDIES, study_plan, study_runs
 from bimanualshift.methods.registry import METHODS
 from bimanualshift.sim.perturbations import PRESETS
 from bimanualshift.sim.task import resolve_task_names
@@ -32,6 +32,14 @@ def test_few_shot_and_table1_follow_the_paper() -> None:
     assert len(study_runs("generalisation")[0][1].perturbations) == len(PRESETS)
     with pytest.raises(ValueError, match="unknown study"):
         study_runs("ablations")
+
+
+def test_overrides_apply_to_every_run_and_a_demos_override_relabels() -> None:
+    plan = study_plan("table1", {"demos": 30, "episodes": 10})
+    assert [label for label, _ in plan] == ["30 demos", "30 demos"]
+    assert all(cfg.demos == 30 and cfg.episodes == 10 for _, cfg in plan)
+    assert plan[1][1].tasks == ["lift_ball", "push_two_buttons", "pick_up_plate"]
+    assert [label for label, _ in study_plan("few_shot", {"episodes": 5})] == ["5 demos", "15 demos", "30 demos"]
 
 
 def test_combined_table_keeps_runs_apart() -> None:

@@ -65,6 +65,16 @@ def study_runs(name: str, root: str = "results") -> list[tuple[str, BenchConfig]
     raise ValueError(f"unknown study {name!r}; choose from {STUDIES}")
 
 
+def study_plan(name: str, overrides: dict[str, Any] | None = None, root: str = "results"
+               ) -> list[tuple[str, BenchConfig]]:
+    """The study's runs with the command line's overrides applied; a ``demos`` override relabels the runs."""
+    plan = []
+    for label, planned in study_runs(name, root):
+        cfg = replace(planned, **(overrides or {}))
+        plan.append((label.replace(f"{planned.demos} demos", f"{cfg.demos} demos"), cfg))
+    return plan
+
+
 STUDIES = ("table1", "few_shot", "generalisation", "long_horizon", "backbones")
 
 
@@ -74,8 +84,7 @@ def run_study(name: str, overrides: dict[str, Any] | None = None, root: str = "r
     started = time.time()
     command = " ".join(["bimanualshift study", *(shlex.quote(a) for a in sys.argv[2:])])
     rows, seeds, configs = [], {}, []
-    for label, cfg in study_runs(name, root):
-        cfg = replace(cfg, **(overrides or {}))
+    for label, cfg in study_plan(name, overrides, root):
         summary = run_bench(cfg, command=f"{command}  # run: {label}")
         result = json.loads(summary.read_text())
         seeds = {**seeds, **{f"{label} {k}": v for k, v in result["seeds"].items()}}
