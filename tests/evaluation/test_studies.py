@@ -7,7 +7,7 @@ from dataclasses import replace
 import pytest
 
 from bimanualshift.evaluation.bench import bench_table
-from bimanualshift.evaluation.studies import STUDIES, study_plan, study_runs
+from bimanualshift.evaluation.studies import STUDIES, combined_rows, study_plan, study_runs
 from bimanualshift.methods.registry import METHODS
 from bimanualshift.sim.perturbations import PRESETS
 from bimanualshift.sim.task import resolve_task_names
@@ -26,9 +26,9 @@ def test_every_study_names_known_tasks_methods_and_separate_folders(name: str) -
 
 def test_few_shot_and_table1_follow_the_paper() -> None:
     assert [cfg.demos for _, cfg in study_runs("few_shot")] == [5, 15, 30]
-    table1 = dict(study_runs("table1"))
-    assert table1["30 demos"].tasks == ["take_tray_out_of_oven", "straighten_rope", "sweep_to_dustpan"]
-    assert table1["100 demos"].demos == 100
+    table1 = [cfg for _, cfg in study_runs("table1")]
+    assert table1[0].tasks == ["take_tray_out_of_oven", "straighten_rope", "sweep_to_dustpan"]
+    assert table1[0].demos == 30 and table1[1].demos == 100
     assert len(study_runs("generalisation")[0][1].perturbations) == len(PRESETS)
     with pytest.raises(ValueError, match="unknown study"):
         study_runs("ablations")
@@ -36,10 +36,30 @@ def test_few_shot_and_table1_follow_the_paper() -> None:
 
 def test_overrides_apply_to_every_run_and_a_demos_override_relabels() -> None:
     plan = study_plan("table1", {"demos": 30, "episodes": 10})
-    assert [label for label, _ in plan] == ["30 demos", "30 demos"]
     assert all(cfg.demos == 30 and cfg.episodes == 10 for _, cfg in plan)
     assert plan[1][1].tasks == ["lift_ball", "push_two_buttons", "pick_up_plate"]
     assert [label for label, _ in study_plan("few_shot", {"episodes": 5})] == ["5 demos", "15 demos", "30 demos"]
+
+
+def test_table1_halves_form_one_row_per_method_with_one_average_over_six_tasks() -> None:
+    def run(tasks: list[str], demos: int, successes: list[int]) -> list[dict]:
+        rows = [{"task": t, "method": "m", "demos": demos, "success": k / 10, "episodes": 10, "ci95": [0.0, 1.0]}
+                for t, k in zip(tasks, successes)]
+        return rows + [{"task": "average", "method": "m", "demos": demos, "success": 0.0, "episodes": 30,
+                        "ci95": [0.0, 1.0]}]
+
+    rows = combined_rows([("all tasks", run(["a", "b", "c"], 30, [0, 1, 2])),
+                          ("all tasks", run(["d", "e", "f"], 100, [3, 4, 8]))])
+    assert [r["task"] for r in rows] == ["a", "b", "c", "d", "e", "f", "average"]
+    average = rows[-1]
+    assert average["success"] == pytest.approx(0.3) and average["episodes"] == 60 and average["demos"] == "30/100"
+    assert "run" not in average  # one group: the rows need no run label
+    table = bench_table(rows)
+    assert table.splitlines()[0].endswith("| f | average |") and "| m | 0 (" in table and "| 30 (" in table
+    grouped = combined_rows([("5 demos", run(["a", "b"], 5, [1, 1])), ("30 demos", run(["a", "b"], 30, [5, 7]))])
+    assert [(r["run"], r["task"]) for r in grouped if r["task"] == "average"] == [("5 demos", "average"),
+                                                                                ("30 demos", "average")]
+    assert grouped[-1]["success"] == pytest.approx(0.6)
 
 
 def test_combined_table_keeps_runs_apart() -> None:

@@ -145,11 +145,7 @@ def bench_rows(episodes: list[dict[str, Any]], methods: list[str], tasks: list[s
                                   "success": round(k / len(mine), 4), "episodes": len(mine),
                                   "ci95": [round(lo, 4), round(hi, 4)], **stage_success(task, mine)})
             if len(rates) > 1:
-                k, n = sum(r[0] for r in rates), sum(r[1] for r in rates)
-                lo, hi = wilson_interval(k, n)
-                mine_rows.append({"task": "average", "method": method, "demos": demos,
-                                  "success": round(float(np.mean([a / b for a, b in rates])), 4), "episodes": n,
-                                  "ci95": [round(lo, 4), round(hi, 4)]})
+                mine_rows.append(average_row(method, demos, rates))
             if list(perturbations) != ["none"]:
                 for r in mine_rows:
                     r["perturbation"] = perturbation
@@ -161,6 +157,16 @@ def bench_rows(episodes: list[dict[str, Any]], methods: list[str], tasks: list[s
             if r["perturbation"] != "none" and base:
                 r["degradation"] = round((base - r["success"]) / base, 4)
     return rows
+
+
+def average_row(method: str, demos: int | str, rates: list[tuple[int, int]]) -> dict[str, Any]:
+    """A method's average over tasks from (successes, episodes) per task: the mean of the per-task rates (each
+    task weighs the same, as in the paper's Table I), with a Wilson interval on the pooled episodes."""
+    k, n = sum(r[0] for r in rates), sum(r[1] for r in rates)
+    lo, hi = wilson_interval(k, n)
+    return {"task": "average", "method": method, "demos": demos,
+            "success": round(float(np.mean([a / b for a, b in rates])), 4), "episodes": n,
+            "ci95": [round(lo, 4), round(hi, 4)]}
 
 
 def stage_success(task: str, episodes: list[dict[str, Any]]) -> dict[str, Any]:

@@ -16,24 +16,25 @@ from dataclasses import asdict, replace
 from pathlib import Path
 from typing import Any
 
-from bimanualshift.evaluation.bench import BenchConfig, bench_table, draw_plots, run_bench, stage_table
+from bimanualshift.evaluation.bench import BenchConfig, average_row, bench_table, draw_plots, run_bench, stage_table
 from bimanualshift.utils.io import atomic_write_text
 
 BASELINES = ["bimanualshift", "peract_lf", "dp_lf", "scratch_voxel", "scratch_dp", "scratch_act", "anybimanual"]
 ABLATIONS = ["no_projection", "no_residual", "no_retrieval", "unstructured"]
 FEW_SHOT_TASKS = ["push_two_buttons", "lift_ball", "pick_up_plate"]
+TABLE1 = "all tasks"  # both halves of Table I share one label: one row per method over the six tasks
 
 
 def study_runs(name: str, root: str = "results") -> list[tuple[str, BenchConfig]]:
     """(label, config) of every benchmark run of a study."""
     out = f"{root}/{name}"
-    if name == "table1":  # Table I: the complex tasks at 30 demos, the simpler ones at 100
+    if name == "table1":  # Table I: the complex tasks at 30 demos, the simpler ones at 100; one row per method
         methods = BASELINES + ABLATIONS
         return [
-            ("30 demos", BenchConfig(tasks=["take_tray_out_of_oven", "straighten_rope", "sweep_to_dustpan"],
-                                     demos=30, methods=methods, out=f"{out}/demos_30", runs="runs/table1")),
-            ("100 demos", BenchConfig(tasks=["lift_ball", "push_two_buttons", "pick_up_plate"], demos=100,
-                                      methods=methods, out=f"{out}/demos_100", runs="runs/table1")),
+            (TABLE1, BenchConfig(tasks=["take_tray_out_of_oven", "straighten_rope", "sweep_to_dustpan"],
+                                 demos=30, methods=methods, out=f"{out}/demos_30", runs="runs/table1")),
+            (TABLE1, BenchConfig(tasks=["lift_ball", "push_two_buttons", "pick_up_plate"], demos=100,
+                                 methods=methods, out=f"{out}/demos_100", runs="runs/table1")),
         ]
     if name == "few_shot":  # Fig. 11a: 5 / 15 / 30 demos
         return [(f"{n} demos", BenchConfig(tasks=FEW_SHOT_TASKS, demos=n, methods=["bimanualshift", "peract_lf"],
@@ -65,6 +66,29 @@ def study_runs(name: str, root: str = "results") -> list[tuple[str, BenchConfig]
     raise ValueError(f"unknown study {name!r}; choose from {STUDIES}")
 
 
+def combined_rows(runs: list[tuple[str, list[dict[str, Any]]]]) -> list[dict[str, Any]]:
+    """One study's rows from its runs' rows. Runs that share a label form one group (Table I's two halves); each
+    group's per-run averages are replaced by one average per method over all of the group's tasks. Rows carry
+    their group's label as ``run`` when the study has more than one group."""
+    groups = list(dict.fromkeys(label for label, _ in runs))
+    out = []
+    for group in groups:
+        rows = [r for label, run_rows in runs if label == group for r in run_rows if r["task"] != "average"]
+        if len(groups) > 1:
+            rows = [{**r, "run": group} for r in rows]
+        averages = []
+        for key in dict.fromkeys((r["method"], r.get("perturbation")) for r in rows):
+            mine = [r for r in rows if (r["method"], r.get("perturbation")) == key]
+            if len(mine) > 1:
+                demos = sorted({r["demos"] for r in mine})
+                row = average_row(key[0], demos[0] if len(demos) == 1 else "/".join(map(str, demos)),
+                                  [(round(r["success"] * r["episodes"]), r["episodes"]) for r in mine])
+                extra = {k: mine[0][k] for k in ("perturbation", "run") if k in mine[0]}
+                averages.append({**row, **extra})
+        out += rows + averages
+    return out
+
+
 def study_plan(name: str, overrides: dict[str, Any] | None = None, root: str = "results"
                ) -> list[tuple[str, BenchConfig]]:
     """The study's runs with the command line's overrides applied; a ``demos`` override relabels the runs."""
@@ -83,13 +107,14 @@ def run_study(name: str, overrides: dict[str, Any] | None = None, root: str = "r
 
     started = time.time()
     command = " ".join(["bimanualshift study", *(shlex.quote(a) for a in sys.argv[2:])])
-    rows, seeds, configs = [], {}, []
+    runs, seeds, configs = [], {}, []
     for label, cfg in study_plan(name, overrides, root):
         summary = run_bench(cfg, command=f"{command}  # run: {label}")
         result = json.loads(summary.read_text())
         seeds = {**seeds, **{f"{label} {k}": v for k, v in result["seeds"].items()}}
-        rows += [{**r, "run": label} for r in result["rows"]]
+        runs.append((label, result["rows"]))
         configs.append({"run": label, **asdict(cfg)})
+    rows = combined_rows(runs)
     out = Path(root) / name
     out.mkdir(parents=True, exist_ok=True)
     atomic_write_text(out / "table.md", bench_table(rows) + "\n" + stage_table(rows))
