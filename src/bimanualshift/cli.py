@@ -23,21 +23,29 @@ or everything at once:   bimanualshift demo
 
 
 def _add_config_overrides(parser: argparse.ArgumentParser, config_cls: type, skip: tuple[str, ...] = ()) -> None:
-    """Expose every field of a config dataclass as --field-name, typed from its default."""
+    """Expose every field of a config dataclass as --field-name, typed from its default, with the field's
+    comment in the config's source as its help."""
+    from bimanualshift.utils.field_help import field_help
+
+    comments = field_help(config_cls)
     for f in fields(config_cls):
         if f.name in skip:
             continue
         flag = "--" + f.name.replace("_", "-")
         default = f.default if not callable(f.default_factory) else f.default_factory()  # type: ignore[misc]
+        about = comments.get(f.name, "").replace("%", "%%")  # argparse formats help with %
+        about = f"{about} " if about else ""
         if isinstance(default, bool):
             parser.add_argument(flag, type=lambda s: s.lower() in ("1", "true", "yes"), default=None,
-                                metavar="true|false", help=f"(default: {default})")
+                                metavar="true|false", help=f"{about}(default: {default})")
         elif isinstance(default, list):
-            parser.add_argument(flag, nargs="+", default=None, help=f"(default: {' '.join(map(str, default))})")
+            parser.add_argument(flag, nargs="+", default=None,
+                                help=f"{about}(default: {' '.join(map(str, default))})")
         elif isinstance(default, dict):
-            parser.add_argument(flag, type=json.loads, default=None, help=f"JSON object (default: {default})")
+            parser.add_argument(flag, type=json.loads, default=None,
+                                help=f"{about}JSON object (default: {default})")
         else:
-            parser.add_argument(flag, type=type(default), default=None, help=f"(default: {default})")
+            parser.add_argument(flag, type=type(default), default=None, help=f"{about}(default: {default})")
 
 
 def _add_config_command(sub: argparse._SubParsersAction, name: str, help_text: str, config_cls: type,
