@@ -107,9 +107,10 @@ def table_for(result: dict[str, Any]) -> str:
     first = result["rows"][0] if result["rows"] else {}
     if result.get("bench"):
         from bimanualshift.evaluation.bench import bench_table, stage_table
+        from bimanualshift.evaluation.targets import targets_table
 
-        stages = stage_table(result["rows"])
-        return "\n".join([bench_table(result["rows"]), *([stages] if stages else []), _footer(result)]) + "\n"
+        parts = [bench_table(result["rows"]), stage_table(result["rows"]), targets_table(result.get("targets", []))]
+        return "\n".join([*(p for p in parts if p), _footer(result)]) + "\n"
     if "prior" in first and "tasks" in first:
         return priors_table(result)
     if "segmenter" in first and "kept" in first:

@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from bimanualshift.evaluation.bench import BenchConfig, average_row, bench_table, draw_plots, run_bench, stage_table
+from bimanualshift.evaluation.targets import study_targets, targets_table
 from bimanualshift.utils.io import atomic_write_text
 
 BASELINES = ["bimanualshift", "peract_lf", "dp_lf", "scratch_voxel", "scratch_dp", "scratch_act", "anybimanual"]
@@ -117,8 +118,10 @@ def run_study(name: str, overrides: dict[str, Any] | None = None, root: str = "r
     rows = combined_rows(runs)
     out = Path(root) / name
     out.mkdir(parents=True, exist_ok=True)
-    atomic_write_text(out / "table.md", bench_table(rows) + "\n" + stage_table(rows))
+    targets = study_targets(name, rows)
+    atomic_write_text(out / "table.md", "\n".join([bench_table(rows), stage_table(rows), targets_table(targets)]))
     draw_plots(out, rows, f"study {name}")
     return write_result(out / "summary.json", command, seeds, started, rows, bench=True, study=name, runs=configs,
+                        targets=targets,
                         notes="rows carry the run they come from; each run's own folder has its episodes and "
                               "videos; wall time covers this invocation only")

@@ -1,0 +1,86 @@
+"""The project's targets for a study, checked against the study's own rows (same run, same seeds).
+
+Each target says what was measured and whether it is met; a target whose methods were not in the run says so
+instead of passing or failing.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+FULL = "bimanualshift"
+FROM_SCRATCH = ("scratch_voxel", "scratch_dp", "scratch_act")
+ABLATIONS = ("no_projection", "no_residual", "no_retrieval", "unstructured")
+
+
+def _averages(rows: list[dict[str, Any]], run: str | None = None) -> dict[str, float]:
+    """Each method's average over tasks (its only task's success where it ran on one task)."""
+    mine = [r for r in rows if r.get("run") == run and "perturbation" not in r]
+    out = {r["method"]: r["success"] for r in mine if r["task"] == "average"}
+    for r in mine:
+        tasks = {x["task"] for x in mine if x["method"] == r["method"]}
+        if r["method"] not in out and len(tasks) == 1:
+            out[r["method"]] = r["success"]
+    return out
+
+
+def _target(name: str, measured: str, met: bool | None) -> dict[str, Any]:
+    return {"target": name, "measured": measured, "met": met}
+
+
+def _pct(x: float) -> str:
+    return f"{100 * x:.0f} %"
+
+
+def table1_targets(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    avg = _averages(rows)
+    full = avg.get(FULL)
+    if full is None:
+        return [_target("every Table I target", f"{FULL} was not in this run", None)]
+    out = [_target("BimanualShift average ≥ 60 %", _pct(full), full >= 0.6)]
+    scratch = {m: avg[m] for m in FROM_SCRATCH if m in avg}
+    if scratch:
+        best = max(scratch, key=scratch.get)  # type: ignore[arg-type]
+        gap = full - scratch[best]
+        out.append(_target("≥ 20 points above the best from-scratch baseline",
+                           f"{100 * gap:+.0f} points vs {best} ({_pct(scratch[best])})", gap >= 0.2))
+    else:
+        out.append(_target("≥ 20 points above the best from-scratch baseline", "no from-scratch baseline in this run",
+                           None))
+    if "anybimanual" in avg:
+        gap = full - avg["anybimanual"]
+        measured = f"{100 * gap:+.0f} points ({_pct(avg['anybimanual'])})"
+        out.append(_target("≥ 10 points above AnyBimanual-style", measured, gap >= 0.1))
+    else:
+        out.append(_target("≥ 10 points above AnyBimanual-style", "anybimanual not in this run", None))
+    for ablation in ABLATIONS:
+        if ablation in avg:
+            out.append(_target(f"{ablation} below the full method", f"{_pct(avg[ablation])} vs {_pct(full)}",
+                               avg[ablation] < full))
+        else:
+            out.append(_target(f"{ablation} below the full method", f"{ablation} not in this run", None))
+    return out
+
+
+def few_shot_targets(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    five, thirty = _averages(rows, "5 demos").get(FULL), _averages(rows, "30 demos").get(FULL)
+    name = "BimanualShift at 5 demos ≥ 0.75 × at 30 demos"
+    if five is None or thirty is None:
+        return [_target(name, "5- or 30-demo BimanualShift runs missing", None)]
+    return [_target(name, f"{_pct(five)} vs 0.75 × {_pct(thirty)} = {_pct(0.75 * thirty)}", five >= 0.75 * thirty)]
+
+
+STUDY_TARGETS = {"table1": table1_targets, "few_shot": few_shot_targets}
+
+
+def study_targets(study: str, rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    return STUDY_TARGETS[study](rows) if study in STUDY_TARGETS else []
+
+
+def targets_table(targets: list[dict[str, Any]]) -> str:
+    if not targets:
+        return ""
+    verdict = {True: "met", False: "**missed**", None: "not measured"}
+    lines = ["| target | measured | |", "|---|---|---|"]
+    lines += [f"| {t['target']} | {t['measured']} | {verdict[t['met']]} |" for t in targets]
+    return "\n".join(lines) + "\n"
