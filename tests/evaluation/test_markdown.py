@@ -108,3 +108,17 @@ def test_generic_table_gives_every_rows_fields_a_column() -> None:
     lines = generic_table(result).splitlines()
     assert lines[0] == "| what | seconds | episodes per min |"
     assert lines[2] == "| train | 714.6 |  |" and lines[3] == "| eval |  | 5 |"
+
+
+def test_a_study_table_carries_its_targets_checked_on_its_rows() -> None:
+    from bimanualshift.evaluation.markdown import table_for
+
+    rows = [{"task": t, "method": m, "demos": 30, "success": s, "episodes": 10, "ci95": [0.0, 1.0]}
+            for m, s in (("bimanualshift", 0.2), ("no_residual", 0.4)) for t in ("a", "average")]
+    result = {"command": "bimanualshift study table1", "commit": "abc123def4567890", "created": "2026",
+              "machine": "cpu", "seeds": {}, "wall_time_s": 60.0, "rows": rows, "notes": "n", "bench": True,
+              "study": "table1"}
+    text = table_for(result)
+    assert "| BimanualShift average ≥ 60 % | 20 % | **missed** |" in text
+    assert "| no_residual below the full method | 40 % vs 20 % | **missed** |" in text
+    assert "target" not in table_for({**result, "study": "generalisation"})

@@ -107,9 +107,10 @@ def table_for(result: dict[str, Any]) -> str:
     first = result["rows"][0] if result["rows"] else {}
     if result.get("bench"):
         from bimanualshift.evaluation.bench import bench_table, stage_table
-        from bimanualshift.evaluation.targets import targets_table
+        from bimanualshift.evaluation.targets import study_targets, targets_table
 
-        parts = [bench_table(result["rows"]), stage_table(result["rows"]), targets_table(result.get("targets", []))]
+        targets = study_targets(result.get("study", ""), result["rows"])  # derived from the rows, never stored alone
+        parts = [bench_table(result["rows"]), stage_table(result["rows"]), targets_table(targets)]
         return "\n".join([*(p for p in parts if p), _footer(result)]) + "\n"
     if "prior" in first and "tasks" in first:
         return priors_table(result)
