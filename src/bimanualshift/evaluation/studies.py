@@ -63,8 +63,8 @@ def study_runs(name: str, root: str = "results") -> list[tuple[str, BenchConfig]
                                       continue_from=f"{runs}/task2/lift_ball")),
         ]
     if name == "backbones":  # Table II: the method over each shipped prior
-        return [(f"prior {prior}", BenchConfig(tasks=list(TABLE1_TASKS), demos=30, methods=["bimanualshift"], prior=prior,
-                                               out=f"{out}/{prior}", runs=f"runs/backbones_{prior}"))
+        return [(f"prior {prior}", BenchConfig(tasks=list(TABLE1_TASKS), demos=30, methods=["bimanualshift"],
+                                               prior=prior, out=f"{out}/{prior}", runs=f"runs/backbones_{prior}"))
                 for prior in ("peract_suite", "dp_suite")]
     raise ValueError(f"unknown study {name!r}; choose from {STUDIES}")
 
