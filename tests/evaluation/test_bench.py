@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import shutil
 from pathlib import Path
 
 import pytest
@@ -82,6 +83,13 @@ def test_bench_runs_resumes_and_reports(demo_root: Path, tmp_path: Path) -> None
     run_bench(cfg, command="test")
     again = read_episodes(log)
     assert len(again) == 4 and sorted(map(json.dumps, again)) == sorted(map(json.dumps, first))
+    # Every episode recorded: a rerun on a machine without the run's data or checkpoints trains and collects
+    # nothing, and reports the same rows.
+    shutil.rmtree(tmp_path / "runs")
+    shutil.rmtree(tmp_path / "data")
+    run_bench(cfg, command="test")
+    assert not (tmp_path / "runs").exists() and not (tmp_path / "data").exists()
+    assert sorted(map(json.dumps, read_episodes(log))) == sorted(map(json.dumps, first))
     result = json.loads(summary.read_text())
     assert result["bench"] and {r["method"] for r in result["rows"]} == {"bimanualshift", "no_residual"}
     assert result["seeds"]["test"] == [200000, 200001] and result["seeds"]["train"] == [0, 1]

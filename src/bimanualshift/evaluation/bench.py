@@ -71,9 +71,9 @@ DEFAULT_TRAIN_STEPS = 1500  # for methods that name no steps of their own
 _CACHE: dict[Any, Any] = {}
 
 
-def _request(cfg: BenchConfig, task: str, method: str) -> TrainRequest:
+def _request(cfg: BenchConfig, task: str, method: str, training: bool = True) -> TrainRequest:
     overrides = {}
-    if cfg.continue_from and get_method(method).continual:
+    if cfg.continue_from and get_method(method).continual and training:
         earlier = Path(cfg.continue_from) / method
         if not earlier.is_dir():
             raise FileNotFoundError(f"continue_from={cfg.continue_from!r}: {method} has no earlier run at {earlier}; "
@@ -347,12 +347,23 @@ def run_bench(cfg: BenchConfig, command: str | None = None) -> Path:
 
     for name in cfg.perturbations:
         preset(name)  # an unknown preset fails before any work
+    log = out / "episodes.jsonl"
+    done = {_key(e) for e in read_episodes(log)}
     for task in tasks:
-        collect([task], seeds["train"], f"{cfg.data}/train", workers=cfg.workers)
-        collect([task], seeds["validation"], f"{cfg.data}/validation", workers=cfg.workers)
+        # A method whose every test episode is already recorded is neither retrained nor re-collected for, so
+        # adding a method to a finished run costs only that method.
+        pending = [m for m in cfg.methods
+                   if any((task, m, p, s) not in done for p in cfg.perturbations for s in seeds["test"])]
+        if pending:
+            collect([task], seeds["train"], f"{cfg.data}/train", workers=cfg.workers)
+            collect([task], seeds["validation"], f"{cfg.data}/validation", workers=cfg.workers)
         for method in cfg.methods:
-            request = _request(cfg, task, method)
-            checkpoint = get_method(method).train(request)
+            request = _request(cfg, task, method, training=method in pending)
+            if method in pending:
+                checkpoint = get_method(method).train(request)
+            else:
+                print(f"[bench] {task} / {method}: every test episode is recorded; not retrained")
+                checkpoint = None
             for perturbation in cfg.perturbations:
                 for i, seed in enumerate(seeds["test"]):
                     suffix = "" if perturbation == "none" else f"_{perturbation}"
@@ -360,8 +371,6 @@ def run_bench(cfg: BenchConfig, command: str | None = None) -> Path:
                     jobs.append(BenchJob(method, task, seed, str(checkpoint or ""), asdict(request), video,
                                          cfg.max_keyframes, perturbation))
 
-    log = out / "episodes.jsonl"
-    done = {_key(e) for e in read_episodes(log)}
     todo = [j for j in jobs if (j.task, j.method, j.perturbation, j.seed) not in done]
     if done:
         print(f"[bench] resuming: {len(done)} episodes already recorded, {len(todo)} to go")
