@@ -67,7 +67,8 @@ def residual_summary(run_dir: Path) -> dict:
     """The residual run's checkpoint choice and validation translation errors, for the result file."""
     summary = json.loads((run_dir / "summary.json").read_text())
     return {"best": summary["best"], "wall_time_s": summary["wall_time_s"],
-            "validation_translation_error": summary["validation_translation_error"]}
+            "validation_translation_error": summary["validation_translation_error"],
+            "output_gate": summary.get("output_gate")}  # the residual's share kept, chosen on validation demos
 
 
 def run_demo(cfg: DemoConfig) -> dict:

@@ -100,6 +100,9 @@ def test_residual_training_resumes_keeps_prior_frozen_and_evaluates(demo_root: P
     assert torch.equal(policy.residual.output_scale, torch.tensor([gate["translation_scale"], gate["rotation_scale"]]))
     assert json.loads((best / "config.json").read_text())["output_scale"]["translation_scale"] == gate[
         "translation_scale"]
+    from bimanualshift.demo import residual_summary
+
+    assert residual_summary(tmp_path / "a")["output_gate"] == gate  # the demo's result file reports it
     env = ManipulationEnv("push_two_buttons", image_size=64)
     try:
         record = rollout(env, policy, seed=200_000, max_keyframes=1)
