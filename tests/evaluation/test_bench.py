@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import shutil
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -90,6 +91,12 @@ def test_bench_runs_resumes_and_reports(demo_root: Path, tmp_path: Path) -> None
     run_bench(cfg, command="test")
     assert not (tmp_path / "runs").exists() and not (tmp_path / "data").exists()
     assert sorted(map(json.dumps, read_episodes(log))) == sorted(map(json.dumps, first))
+    # --episodes 0 trains every method and rolls nothing out.
+    train_only = replace(cfg, episodes=0, methods=["bimanualshift"], runs=str(tmp_path / "runs_only"),
+                         out=str(tmp_path / "out_only"))
+    run_bench(train_only, command="test")
+    assert (tmp_path / "runs_only" / "push_two_buttons" / "bimanualshift" / "best" / "config.json").is_file()
+    assert not read_episodes(tmp_path / "out_only" / "episodes.jsonl")
     result = json.loads(summary.read_text())
     assert result["bench"] and {r["method"] for r in result["rows"]} == {"bimanualshift", "no_residual"}
     assert result["seeds"]["test"] == [200000, 200001] and result["seeds"]["train"] == [0, 1]

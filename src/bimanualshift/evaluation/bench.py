@@ -352,8 +352,8 @@ def run_bench(cfg: BenchConfig, command: str | None = None) -> Path:
     for task in tasks:
         # A method whose every test episode is already recorded is neither retrained nor re-collected for, so
         # adding a method to a finished run costs only that method.
-        pending = [m for m in cfg.methods
-                   if any((task, m, p, s) not in done for p in cfg.perturbations for s in seeds["test"])]
+        pending = [m for m in cfg.methods if not seeds["test"]  # --episodes 0: training only
+                   or any((task, m, p, s) not in done for p in cfg.perturbations for s in seeds["test"])]
         if pending:
             collect([task], seeds["train"], f"{cfg.data}/train", workers=cfg.workers)
             collect([task], seeds["validation"], f"{cfg.data}/validation", workers=cfg.workers)
