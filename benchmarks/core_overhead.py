@@ -29,7 +29,7 @@ from bimanualshift.evaluation.report import write_result
 from bimanualshift.memory.bank import MemoryBank, MemoryEntry, memory_key
 from bimanualshift.memory.reference import REFERENCE_DIM
 from bimanualshift.methods.bimanualshift import BimanualShift
-from bimanualshift.methods.leader_follower import FrozenPriorPerArm
+from bimanualshift.methods.frozen_prior import FrozenPriorPerArm
 from bimanualshift.methods.stages import FrozenPriorStage
 from bimanualshift.priors import PRIORS, UnimanualPrior
 from bimanualshift.residual.manager import ResidualConfig, ResidualPolicy

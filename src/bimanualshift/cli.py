@@ -332,7 +332,7 @@ def cmd_eval(args: argparse.Namespace) -> None:
     from bimanualshift.evaluation.report import print_success_table, success_rows, write_result
     from bimanualshift.evaluation.rollout import evaluate
     from bimanualshift.methods.bimanualshift import load_bimanualshift
-    from bimanualshift.methods.leader_follower import FrozenPriorPerArm
+    from bimanualshift.methods.frozen_prior import FrozenPriorPerArm
     from bimanualshift.sim.env import ManipulationEnv
 
     started = time.time()
@@ -501,12 +501,12 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("eval", help="evaluate a method on held-out seeds")
     p.add_argument("--method", default="bimanualshift",
-                   choices=["bimanualshift", "leader_follower", "no_residual", "prior"],
-                   help="bimanualshift (needs --checkpoint); leader_follower = the frozen prior driving each arm on "
-                        "the global scene; no_residual = the same through the projection (ablation); prior = the "
-                        "frozen prior, named for single-arm tasks (the last three need --prior)")
+                   choices=["bimanualshift", "frozen_prior_per_arm", "no_residual", "prior"],
+                   help="bimanualshift (needs --checkpoint); frozen_prior_per_arm = the frozen prior driving each "
+                        "arm on the global scene; no_residual = the same through the projection (ablation); "
+                        "prior = the frozen prior, named for single-arm tasks (the last three need --prior)")
     p.add_argument("--checkpoint", help="BimanualShift checkpoint directory (from `train`)")
-    p.add_argument("--prior", help="prior checkpoint directory (for leader_follower and prior)")
+    p.add_argument("--prior", help="prior checkpoint directory (for the methods other than bimanualshift)")
     p.add_argument("--task", nargs="+", default=["push_two_buttons"], help="one or more task names")
     p.add_argument("--episodes", type=int, default=20, help="episodes per task")
     p.add_argument("--split", default="test", choices=["validation", "test"])

@@ -24,7 +24,7 @@ from bimanualshift.evaluation.media import write_strip, write_video
 from bimanualshift.evaluation.report import print_success_table, success_rows, write_result
 from bimanualshift.evaluation.rollout import evaluate
 from bimanualshift.methods.bimanualshift import load_bimanualshift
-from bimanualshift.methods.leader_follower import FrozenPriorPerArm
+from bimanualshift.methods.frozen_prior import FrozenPriorPerArm
 from bimanualshift.sim.env import ManipulationEnv
 from bimanualshift.training.pretrain import PretrainConfig, pretrain
 from bimanualshift.training.residual import TrainConfig, train_residual

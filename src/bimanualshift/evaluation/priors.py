@@ -33,7 +33,7 @@ class PriorEpisode:
 
 def _policy(prior: str) -> Any:
     from bimanualshift.encoders.text import default_text_encoder
-    from bimanualshift.methods.leader_follower import FrozenPriorPerArm
+    from bimanualshift.methods.frozen_prior import FrozenPriorPerArm
 
     key = ("policy", prior)
     if key not in _CACHE:

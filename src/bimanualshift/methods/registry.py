@@ -86,7 +86,7 @@ def _residual_method(name: str, description: str, **switches: Any) -> MethodSpec
 def _frozen_prior_method(name: str, description: str, use_projection: bool) -> MethodSpec:
     def load(checkpoint: Path | None, request: TrainRequest) -> Policy:
         from bimanualshift.encoders.text import default_text_encoder
-        from bimanualshift.methods.leader_follower import FrozenPriorPerArm
+        from bimanualshift.methods.frozen_prior import FrozenPriorPerArm
 
         return FrozenPriorPerArm.from_pretrained(request.prior, default_text_encoder(), name=name,
                                                  use_projection=use_projection)

@@ -1,7 +1,8 @@
 """Baseline: the same frozen single-arm prior drives each arm on its own, with no residual.
 
-This is the leader-follower baseline in its simplest form (no fine-tuning, no conditioning of one arm
-on the other); on a single-arm task it is simply the prior itself, reported under the name "prior".
+The floor every bimanual method built on the prior must clear: no fine-tuning, no conditioning of one arm on the
+other (the fine-tuned leader-follower pair is ``baselines/leader_follower_tuned.py``, PerAct-LF and DP-LF). On a
+single-arm task it is simply the prior itself, reported under the name "prior".
 """
 
 from __future__ import annotations
@@ -15,12 +16,12 @@ from bimanualshift.priors.base import UnimanualPrior
 
 
 class FrozenPriorPerArm:
-    def __init__(self, stage: FrozenPriorStage, name: str = "leader_follower") -> None:
+    def __init__(self, stage: FrozenPriorStage, name: str = "frozen_prior_per_arm") -> None:
         self.stage = stage
         self.name = name
 
     @staticmethod
-    def from_pretrained(prior: str, text_encoder: TextEncoder, name: str = "leader_follower",
+    def from_pretrained(prior: str, text_encoder: TextEncoder, name: str = "frozen_prior_per_arm",
                         use_projection: bool = False) -> FrozenPriorPerArm:
         """The baseline sees the global scene: no arm-conditioned projection, no residual. With
         ``use_projection`` it is the "without residual modulation" ablation: the projection, but no residual."""
