@@ -72,4 +72,6 @@ def run_training(run_dir: str | Path, model: nn.Module, optimizer: torch.optim.O
             history.append(record)
             save_checkpoint(run_dir, done, model, optimizer, {"history": history, "best": best, "elapsed_s": elapsed})
             atomic_write_json(run_dir / "history.json", {"history": history, "best": best})
-    return {"history": history, "best": best}
+    # Training time over every invocation of this directory (a resumed run's wall time covers only itself).
+    training_time_s = history[-1]["elapsed_s"] if history else round(elapsed_before, 1)
+    return {"history": history, "best": best, "training_time_s": training_time_s}
