@@ -91,6 +91,9 @@ def test_bench_runs_resumes_and_reports(demo_root: Path, tmp_path: Path) -> None
     run_bench(cfg, command="test")
     assert not (tmp_path / "runs").exists() and not (tmp_path / "data").exists()
     assert sorted(map(json.dumps, read_episodes(log))) == sorted(map(json.dumps, first))
+    # The folder's episodes came from 2 demos: a 3-demo run is refused before any work, not silently mixed in.
+    with pytest.raises(ValueError, match=r"demos=2 there, 3 now.*own --out"):
+        run_bench(replace(cfg, demos=3), command="test")
     # --episodes 0 trains every method and rolls nothing out.
     train_only = replace(cfg, episodes=0, methods=["bimanualshift"], runs=str(tmp_path / "runs_only"),
                          out=str(tmp_path / "out_only"))
@@ -127,3 +130,30 @@ def test_training_steps_come_from_the_method_unless_the_benchmark_says_otherwise
     every = BenchConfig(tasks=["push_two_buttons"], residual_steps=2)
     assert {_request(every, "push_two_buttons", m).steps for m in ("bimanualshift", "peract_lf")} == {2}
     assert _request(every, "push_two_buttons", "scratch_voxel").steps == 3000
+
+
+def test_a_training_run_is_reused_only_for_the_request_that_started_it(tmp_path: Path) -> None:
+    from bimanualshift.evaluation.bench import _request, check_training_run
+
+    cfg = BenchConfig(tasks=["lift_ball"], runs=str(tmp_path / "runs"), data=str(tmp_path / "data"))
+    request = _request(cfg, "lift_ball", "scratch_voxel")
+    check_training_run(request)
+    check_training_run(request)  # the same request resumes
+    moved = replace(cfg, data=str(tmp_path / "elsewhere"))
+    check_training_run(_request(moved, "lift_ball", "scratch_voxel"))  # data may move
+    with pytest.raises(ValueError, match=r"demos=30 there, 100 now.*own --runs"):
+        check_training_run(_request(replace(cfg, demos=100), "lift_ball", "scratch_voxel"))
+    with pytest.raises(ValueError, match="steps=3000 there, 10 now"):
+        check_training_run(_request(replace(cfg, method_steps={"scratch_voxel": 10}), "lift_ball", "scratch_voxel"))
+
+
+def test_a_results_folder_from_before_the_settings_file_is_checked_against_its_summary(tmp_path: Path) -> None:
+    from bimanualshift.evaluation.bench import SETTINGS_FILE, check_results_folder
+
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "summary.json").write_text(json.dumps({"config": {"demos": 30, "max_keyframes": 16}}))
+    with pytest.raises(ValueError, match="max_keyframes=16 there, 0 now"):
+        check_results_folder(BenchConfig(out=str(out), demos=30, max_keyframes=0))
+    check_results_folder(BenchConfig(out=str(out), demos=30, max_keyframes=16))
+    assert json.loads((out / SETTINGS_FILE).read_text())["demos"] == 30

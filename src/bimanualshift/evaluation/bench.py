@@ -22,7 +22,7 @@ import numpy as np
 from bimanualshift.data.seeds import split_seeds
 from bimanualshift.evaluation.stats import wilson_interval
 from bimanualshift.methods.registry import METHODS, TrainRequest, get_method
-from bimanualshift.utils.io import atomic_write_text
+from bimanualshift.utils.io import atomic_write_json, atomic_write_text
 from bimanualshift.utils.jsonl import append_record, read_records
 from bimanualshift.utils.workers import run_jobs
 
@@ -85,6 +85,47 @@ def _request(cfg: BenchConfig, task: str, method: str, training: bool = True) ->
                                   or DEFAULT_TRAIN_STEPS),
                         seed=cfg.seed,
                         overrides=overrides)
+
+
+# The settings that change what a recorded episode or a trained run measures. A results folder holds the episodes
+# of one setting and a training run the weights of one request: reusing either under other settings would put,
+# say, 30-demo episodes in a 100-demo table without a word.
+EPISODE_SETTINGS = ("demos", "validation_demos", "prior", "residual_steps", "method_steps", "max_keyframes", "seed",
+                    "continue_from")
+SETTINGS_FILE = "bench_settings.json"
+REQUEST_FILE = "bench_request.json"
+
+
+def _check_same(path: Path, settings: dict[str, Any], earlier: dict[str, Any] | None, what: str, fix: str) -> None:
+    """Refuse to reuse ``path``'s folder when its earlier settings differ from these; record them otherwise."""
+    if earlier is None and path.is_file():
+        earlier = json.loads(path.read_text())
+    if earlier is not None:
+        differ = {k: (earlier[k], v) for k, v in settings.items() if k in earlier and earlier[k] != v}
+        if differ:
+            listed = "; ".join(f"{k}={old!r} there, {new!r} now" for k, (old, new) in differ.items())
+            raise ValueError(f"{path.parent} holds {what} made with other settings ({listed}): {fix}")
+    atomic_write_json(path, {**(earlier or {}), **settings})
+
+
+def check_results_folder(cfg: BenchConfig) -> None:
+    """A results folder is reused (resumed, extended by methods) only under the settings its episodes came from.
+    Folders written before the settings file existed are checked against their summary's config."""
+    out = Path(cfg.out)
+    legacy = None
+    if not (out / SETTINGS_FILE).is_file() and (out / "summary.json").is_file():
+        config = json.loads((out / "summary.json").read_text()).get("config") or {}
+        legacy = {k: config[k] for k in EPISODE_SETTINGS if k in config} or None
+    _check_same(out / SETTINGS_FILE, {k: getattr(cfg, k) for k in EPISODE_SETTINGS}, legacy, "episodes",
+                "give this run its own --out (and --runs; `study`: --results), or delete that folder to start over")
+
+
+def check_training_run(request: TrainRequest) -> None:
+    """A training run is resumed or reused only for the request that started it (paths aside: data and runs may
+    move)."""
+    settings = {k: v for k, v in asdict(request).items() if k not in ("data", "validation_data", "out")}
+    _check_same(Path(request.out) / REQUEST_FILE, settings, None, "a training run",
+                "give this run its own --runs, or delete that folder to retrain")
 
 
 def run_bench_episode(job: BenchJob) -> dict[str, Any]:
@@ -339,6 +380,7 @@ def run_bench(cfg: BenchConfig, command: str | None = None) -> Path:
         get_method(method)
     out = Path(cfg.out)
     (out / "videos").mkdir(parents=True, exist_ok=True)
+    check_results_folder(cfg)
     seeds = {"train": split_seeds("train", cfg.demos), "validation": split_seeds("validation", cfg.validation_demos),
              "test": split_seeds("test", cfg.episodes)}
 
@@ -360,6 +402,8 @@ def run_bench(cfg: BenchConfig, command: str | None = None) -> Path:
         for method in cfg.methods:
             request = _request(cfg, task, method, training=method in pending)
             if method in pending:
+                Path(request.out).mkdir(parents=True, exist_ok=True)
+                check_training_run(request)
                 checkpoint = get_method(method).train(request)
             else:
                 print(f"[bench] {task} / {method}: every test episode is recorded; not retrained")

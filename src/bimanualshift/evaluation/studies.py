@@ -32,12 +32,13 @@ def study_runs(name: str, root: str = "results") -> list[tuple[str, BenchConfig]
     """(label, config) of every benchmark run of a study."""
     out = f"{root}/{name}"
     if name == "table1":  # Table I: the complex tasks at 30 demos, the simpler ones at 100; one row per method
+        # (folders are named by their tasks, not their demos: `--demos` overrides both halves)
         methods = BASELINES + ABLATIONS
         return [
-            (TABLE1, BenchConfig(tasks=list(TABLE1_TASKS[:3]), demos=30, methods=methods, out=f"{out}/demos_30",
+            (TABLE1, BenchConfig(tasks=list(TABLE1_TASKS[:3]), demos=30, methods=methods, out=f"{out}/complex_tasks",
                                  runs="runs/table1")),
             (TABLE1, BenchConfig(tasks=list(TABLE1_TASKS[3:]), demos=100,
-                                 methods=methods, out=f"{out}/demos_100", runs="runs/table1")),
+                                 methods=methods, out=f"{out}/simpler_tasks", runs="runs/table1")),
         ]
     if name == "few_shot":  # Fig. 11a: 5 / 15 / 30 demos
         return [(f"{n} demos", BenchConfig(tasks=FEW_SHOT_TASKS, demos=n, methods=["bimanualshift", "peract_lf"],
