@@ -402,7 +402,6 @@ def run_bench(cfg: BenchConfig, command: str | None = None) -> Path:
         for method in cfg.methods:
             request = _request(cfg, task, method, training=method in pending)
             if method in pending:
-                Path(request.out).mkdir(parents=True, exist_ok=True)
                 check_training_run(request)
                 checkpoint = get_method(method).train(request)
             else:
