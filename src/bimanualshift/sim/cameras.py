@@ -8,6 +8,7 @@ keyframes. Camera matrices follow ``geometry.cameras`` (OpenCV optical frame, ca
 from __future__ import annotations
 
 import atexit
+import time
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 
@@ -59,6 +60,24 @@ class CameraFrame:
     extrinsics: np.ndarray  # (4, 4) camera-to-world, OpenCV optical frame
 
 
+class _PassClock:
+    """Milliseconds between laps, appended to ``timings[key]`` (a no-op without ``timings``)."""
+
+    def __init__(self, timings: dict[str, list[float]] | None) -> None:
+        self.timings = timings
+        self.t = 0.0
+
+    def start(self) -> None:
+        if self.timings is not None:
+            self.t = time.perf_counter()
+
+    def lap(self, key: str) -> None:
+        if self.timings is not None:
+            now = time.perf_counter()
+            self.timings.setdefault(key, []).append(1000 * (now - self.t))
+            self.t = now
+
+
 class CameraRig:
     """Renders a fixed set of MuJoCo cameras."""
 
@@ -97,25 +116,33 @@ class CameraRig:
         out[:3, 3] = cam.xpos
         return out
 
-    def render(self, data: mujoco.MjData, depth_and_segmentation: bool = True) -> dict[str, CameraFrame]:
+    def render(self, data: mujoco.MjData, depth_and_segmentation: bool = True,
+               timings: dict[str, list[float]] | None = None) -> dict[str, CameraFrame]:
+        """Every camera's frame; ``timings``, if given, collects milliseconds per ``camera/pass``."""
         frames: dict[str, CameraFrame] = {}
         r = self.renderer
         if r is None:
             raise RuntimeError("this camera rig was closed; create a new environment to render")
+        clock = _PassClock(timings)
         for name in self.names:
             cam = self.mujoco_names.get(name, name)
+            clock.start()
             r.update_scene(data, camera=cam, scene_option=self.option)
+            clock.lap(f"{name}/scene")
             rgb = r.render().copy()
+            clock.lap(f"{name}/rgb")
             depth = np.zeros(rgb.shape[:2], np.float32)
             geom = np.full(rgb.shape[:2], -1, np.int32)
             if depth_and_segmentation:
                 r.enable_depth_rendering()
                 depth = r.render().astype(np.float32)
                 r.disable_depth_rendering()
+                clock.lap(f"{name}/depth")
                 r.enable_segmentation_rendering()
                 seg = r.render()
                 r.disable_segmentation_rendering()
                 geom = np.where(seg[..., 1] == int(mujoco.mjtObj.mjOBJ_GEOM), seg[..., 0], -1).astype(np.int32)
+                clock.lap(f"{name}/segmentation")
             frames[name] = CameraFrame(rgb, depth, geom, self.intrinsics(), self.extrinsics(data, name))
         return frames
 

@@ -66,6 +66,7 @@ class ManipulationEnv(gym.Env):
         self._dense: list[dict[str, np.ndarray]] | None = None
         self._video: tuple[tuple[str, ...], int, list[np.ndarray]] | None = None  # cameras, every n steps, frames
         self._steps = 0
+        self.render_timings: dict[str, list[float]] | None = None  # ms per camera/pass, when a profiler asks
         self.keyframe_index = 0
         self.gripper_open = {arm: 1.0 for arm in self.arm_names}
         n = len(self.arm_names)
@@ -155,7 +156,7 @@ class ManipulationEnv(gym.Env):
             "keyframe_index": self.keyframe_index,
         }
         if render:
-            frames = self.cameras.render(self.data)
+            frames = self.cameras.render(self.data, timings=self.render_timings)
             obs["cameras"] = {
                 name: {
                     "rgb": f.rgb,
