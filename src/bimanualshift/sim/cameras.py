@@ -79,7 +79,12 @@ class _PassClock:
 
 
 class CameraRig:
-    """Renders a fixed set of MuJoCo cameras."""
+    """Renders a fixed set of MuJoCo cameras with two passes per camera.
+
+    A colour pass draws the lit scene; a segmentation pass (flat id colours) gives the geom of every pixel and,
+    from the same depth buffer, metric depth. That is the whole cost of an RGB-D + segmentation frame: MuJoCo's
+    ``Renderer`` draws depth and segmentation in two separate passes of their own.
+    """
 
     def __init__(self, model: mujoco.MjModel, names: tuple[str, ...], mujoco_names: dict[str, str],
                  height: int = 128, width: int = 128) -> None:
@@ -90,18 +95,34 @@ class CameraRig:
         model.vis.quality.offsamples = 0  # no anti-aliasing: 3x cheaper software rendering
         model.vis.global_.offwidth = max(model.vis.global_.offwidth, width)
         model.vis.global_.offheight = max(model.vis.global_.offheight, height)
-        self.renderer: mujoco.Renderer | None = mujoco.Renderer(model, height, width)
+        for name in names:
+            if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, self.mujoco_names.get(name, name)) < 0:
+                raise KeyError(f"camera {name!r} is not in the scene")
+        self._gl: mujoco.GLContext | None = mujoco.GLContext(width, height)
+        self._gl.make_current()
+        self._context = mujoco.MjrContext(model, mujoco.mjtFontScale.mjFONTSCALE_150)
+        mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN, self._context)
+        self._context.readDepthMap = mujoco.mjtDepthMap.mjDEPTH_ZEROFAR
         atexit.register(self.close)  # free the GL context before interpreter teardown breaks EGL calls
+        self._scene = mujoco.MjvScene(model, maxgeom=10_000)
         for flag in (mujoco.mjtRndFlag.mjRND_SHADOW, mujoco.mjtRndFlag.mjRND_REFLECTION,
                      mujoco.mjtRndFlag.mjRND_SKYBOX):
-            self.renderer.scene.flags[flag] = 0
+            self._scene.flags[flag] = 0
+        self._rect = mujoco.MjrRect(0, 0, width, height)
+        self._camera = mujoco.MjvCamera()
+        self._camera.type = mujoco.mjtCamera.mjCAMERA_FIXED
+        self._camera_ids = {name: mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, self.mujoco_names.get(name, name))
+                            for name in names}
         self.option = mujoco.MjvOption()
         self.option.geomgroup[:] = 0
         self.option.geomgroup[1] = 1  # visual geoms only (robosuite's collision geoms are group 0)
         self.option.sitegroup[:] = 0
-        for name in names:
-            if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, self.mujoco_names.get(name, name)) < 0:
-                raise KeyError(f"camera {name!r} is not in the scene")
+        # OpenGL's reversed-z depth buffer -> metres (as mujoco.Renderer converts it)
+        extent = model.stat.extent
+        near, far = np.float32(model.vis.map.znear * extent), np.float32(model.vis.map.zfar * extent)
+        c = -(far + near) / (far - near)
+        self._depth_c = float(np.float32(-0.5) * c - np.float32(0.5))
+        self._depth_d = float(np.float32(-0.5) * (-(np.float32(2) * far * near) / (far - near)))
 
     def intrinsics(self) -> np.ndarray:
         # One fovy for every camera; MuJoCo's pixels are square.
@@ -116,44 +137,68 @@ class CameraRig:
         out[:3, 3] = cam.xpos
         return out
 
+    def _update_scene(self, data: mujoco.MjData, name: str) -> None:
+        if self._gl is None:
+            raise RuntimeError("this camera rig was closed; create a new environment to render")
+        self._gl.make_current()  # several environments (each with its own context) may share a process
+        self._camera.fixedcamid = self._camera_ids[name]
+        mujoco.mjv_updateScene(self.model, data, self.option, None, self._camera, mujoco.mjtCatBit.mjCAT_ALL,
+                               self._scene)
+
+    def _colour_pass(self) -> np.ndarray:
+        rgb = np.empty((self.height, self.width, 3), np.uint8)
+        mujoco.mjr_render(self._rect, self._scene, self._context)
+        mujoco.mjr_readPixels(rgb, None, self._rect, self._context)
+        return rgb[::-1]  # OpenGL's rows run bottom-up
+
+    def _segmentation_pass(self) -> tuple[np.ndarray, np.ndarray]:
+        """(metric depth, geom id per pixel or -1) from one flat-colour pass."""
+        flags = self._scene.flags
+        flags[mujoco.mjtRndFlag.mjRND_SEGMENT] = flags[mujoco.mjtRndFlag.mjRND_IDCOLOR] = 1
+        ids = np.empty((self.height, self.width, 3), np.uint8)
+        zbuf = np.empty((self.height, self.width), np.float32)
+        try:
+            mujoco.mjr_render(self._rect, self._scene, self._context)
+            mujoco.mjr_readPixels(ids, zbuf, self._rect, self._context)
+        finally:
+            flags[mujoco.mjtRndFlag.mjRND_SEGMENT] = flags[mujoco.mjtRndFlag.mjRND_IDCOLOR] = 0
+        depth = (self._depth_d / (zbuf[::-1].astype(np.float64) + self._depth_c)).astype(np.float32)
+        segid = ids[::-1].astype(np.int32)
+        segid = segid[..., 0] + (segid[..., 1] << 8) + (segid[..., 2] << 16)  # 0 = background, else segid + 1
+        lookup = np.full(self._scene.ngeom + 1, -1, np.int32)
+        for g in self._scene.geoms[: self._scene.ngeom]:
+            if g.segid >= 0 and g.objtype == mujoco.mjtObj.mjOBJ_GEOM:
+                lookup[g.segid + 1] = g.objid
+        return depth, lookup[np.minimum(segid, self._scene.ngeom)]
+
     def render(self, data: mujoco.MjData, depth_and_segmentation: bool = True,
                timings: dict[str, list[float]] | None = None) -> dict[str, CameraFrame]:
         """Every camera's frame; ``timings``, if given, collects milliseconds per ``camera/pass``."""
         frames: dict[str, CameraFrame] = {}
-        r = self.renderer
-        if r is None:
-            raise RuntimeError("this camera rig was closed; create a new environment to render")
         clock = _PassClock(timings)
         for name in self.names:
-            cam = self.mujoco_names.get(name, name)
             clock.start()
-            r.update_scene(data, camera=cam, scene_option=self.option)
+            self._update_scene(data, name)
             clock.lap(f"{name}/scene")
-            rgb = r.render().copy()
+            rgb = self._colour_pass()
             clock.lap(f"{name}/rgb")
-            depth = np.zeros(rgb.shape[:2], np.float32)
-            geom = np.full(rgb.shape[:2], -1, np.int32)
             if depth_and_segmentation:
-                r.enable_depth_rendering()
-                depth = r.render().astype(np.float32)
-                r.disable_depth_rendering()
-                clock.lap(f"{name}/depth")
-                r.enable_segmentation_rendering()
-                seg = r.render()
-                r.disable_segmentation_rendering()
-                geom = np.where(seg[..., 1] == int(mujoco.mjtObj.mjOBJ_GEOM), seg[..., 0], -1).astype(np.int32)
-                clock.lap(f"{name}/segmentation")
+                depth, geom = self._segmentation_pass()
+                clock.lap(f"{name}/depth_segmentation")
+            else:
+                depth = np.zeros(rgb.shape[:2], np.float32)
+                geom = np.full(rgb.shape[:2], -1, np.int32)
             frames[name] = CameraFrame(rgb, depth, geom, self.intrinsics(), self.extrinsics(data, name))
         return frames
 
     def render_rgb(self, data: mujoco.MjData, name: str) -> np.ndarray:
         """One camera's colour image only (cheap enough for video frames)."""
-        if self.renderer is None:
-            raise RuntimeError("this camera rig was closed; create a new environment to render")
-        self.renderer.update_scene(data, camera=self.mujoco_names.get(name, name), scene_option=self.option)
-        return self.renderer.render().copy()
+        self._update_scene(data, name)
+        return self._colour_pass()
 
     def close(self) -> None:
-        if self.renderer is not None:
-            self.renderer.close()
-            self.renderer = None
+        if self._gl is not None:
+            self._gl.make_current()
+            self._context.free()
+            self._gl.free()
+            self._gl = None

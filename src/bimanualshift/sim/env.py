@@ -10,6 +10,7 @@ once per keyframe, never at every control step.
 from __future__ import annotations
 
 import copy
+from dataclasses import dataclass
 from typing import Any
 
 import gymnasium as gym
@@ -18,6 +19,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation, Slerp
 
 from bimanualshift.geometry.frames import ArmFrame, canonical_quat
+from bimanualshift.sim.arm_control import ArmIndexes, ServoArms
 from bimanualshift.sim.cameras import CameraRig, default_camera_names, wrist_camera_names
 from bimanualshift.sim.perturb_scene import apply_to_model, mirror_bodies
 from bimanualshift.sim.perturbations import Perturbations
@@ -28,6 +30,21 @@ from bimanualshift.sim.task import ACTION_DIM, ArmAction, Keyframe, SimHandle, T
 PROPRIO_DIM = 8
 WORKSPACE_LOW = np.array([-0.55, -0.75, TABLE_TOP_Z - 0.02])
 WORKSPACE_HIGH = np.array([0.45, 0.75, TABLE_TOP_Z + 0.65])
+
+
+# Model fields a task or perturbation may set per episode; data fields that make up the simulator's state.
+MODEL_EPISODE_FIELDS = ("body_pos", "body_quat", "geom_rgba", "geom_size", "geom_pos", "geom_quat", "geom_matid",
+                        "geom_friction", "body_mass", "jnt_range", "dof_damping")
+DATA_STATE_FIELDS = ("qpos", "qvel", "act", "ctrl", "qacc_warmstart")
+
+
+@dataclass(frozen=True)
+class ArmCommand:
+    """One control step's command for every arm, in this env's arm order (world frame)."""
+
+    positions: np.ndarray  # (n_arms, 3)
+    quats_wxyz: np.ndarray  # (n_arms, 4)
+    gripper_open: np.ndarray  # (n_arms,) 1 open, 0 closed
 
 
 class InvalidActionError(ValueError):
@@ -51,6 +68,12 @@ class ManipulationEnv(gym.Env):
         self.sim = SimHandle(self.model, self.data, TABLE_TOP_Z)
         self.task.after_compile(self.model)
         apply_to_model(self.model, self.perturbations)
+        self.arms = ServoArms(self.model, self.data, [ArmIndexes.of_robot(self.model, r) for r in self.scene.robots])
+        self._grippers = [(r._ref_gripper_joint_pos_indexes["right"], np.asarray(r.gripper["right"].init_qpos))
+                          for r in self.scene.robots]
+        # What an episode may change in the model (placements, colours): restored at every reset, so an episode
+        # never inherits the one before it.
+        self._model_fields = {key: getattr(self.model, key).copy() for key in MODEL_EPISODE_FIELDS}
         self.camera_names = camera_names or default_camera_names(self.arm_names)
         self.cameras = CameraRig(self.model, self.camera_names, wrist_camera_names(self.arm_names),
                                  image_size, image_size)
@@ -81,7 +104,7 @@ class ManipulationEnv(gym.Env):
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None
               ) -> tuple[dict[str, Any], dict[str, Any]]:
         super().reset(seed=seed)
-        self.scene.reset()  # soft reset: robots back to their initial joints, controllers cleared
+        self._reset_physics()
         self.task.initialize_episode(self.sim, np.random.default_rng(seed))
         mujoco.mj_forward(self.model, self.data)
         if self.perturbations.swap_sides:
@@ -91,6 +114,19 @@ class ManipulationEnv(gym.Env):
         self._settle(steps=5)
         render = True if options is None else bool(options.get("render", True))
         return self.observe(render=render), {"instruction": self.task.instruction()}
+
+    def _reset_physics(self) -> None:
+        """Everything back to the compiled scene: model fields, MuJoCo's state (warm start included), the arms at
+        their home joints with servos holding them, grippers open. Nothing of an earlier episode survives."""
+        for key, value in self._model_fields.items():
+            getattr(self.model, key)[:] = value
+        mujoco.mj_resetData(self.model, self.data)
+        for arm, (gripper_qpos, gripper_home) in zip(self.arms.arms, self._grippers):
+            self.data.qpos[arm.qpos] = arm.home
+            self.data.qpos[gripper_qpos] = gripper_home
+        mujoco.mj_forward(self.model, self.data)
+        self.arms.reset()
+        self.task.episode = {}
 
     def step(self, action: np.ndarray, render: bool = True
              ) -> tuple[dict[str, Any], float, bool, bool, dict[str, Any]]:
@@ -119,6 +155,9 @@ class ManipulationEnv(gym.Env):
             "qpos": self.data.qpos.copy(),
             "qvel": self.data.qvel.copy(),
             "act": self.data.act.copy(),
+            "ctrl": self.data.ctrl.copy(),
+            "qacc_warmstart": self.data.qacc_warmstart.copy(),
+            "gripper_action": self.arms.gripper_action.copy(),
             "body_pos": self.model.body_pos.copy(),
             "body_quat": self.model.body_quat.copy(),
             "geom_rgba": self.model.geom_rgba.copy(),
@@ -128,14 +167,15 @@ class ManipulationEnv(gym.Env):
         }
 
     def set_state(self, state: dict[str, Any]) -> None:
-        for key in ("qpos", "qvel", "act", "body_pos", "body_quat", "geom_rgba"):
-            target = getattr(self.data if key in ("qpos", "qvel", "act") else self.model, key)
+        for key in ("qpos", "qvel", "act", "ctrl", "qacc_warmstart", "body_pos", "body_quat", "geom_rgba"):
+            target = getattr(self.data if key in DATA_STATE_FIELDS else self.model, key)
             if np.shape(state[key]) != target.shape:
                 raise ValueError(f"state[{key!r}] has shape {np.shape(state[key])}, this scene needs {target.shape}")
             target[:] = state[key]
         self.task.episode = copy.deepcopy(state["episode"])
         self.keyframe_index = int(state["keyframe_index"])
         self.gripper_open = dict(state["gripper_open"])
+        self.arms.gripper_action[:] = state["gripper_action"]
         mujoco.mj_forward(self.model, self.data)
 
     # ---- observation -----------------------------------------------------------------------------------
@@ -204,15 +244,14 @@ class ManipulationEnv(gym.Env):
             targets[arm] = ArmAction(row[:3], canonical_quat(row[3:7]), float(row[7] > 0.5), float(row[8] > 0.5))
         return targets
 
-    def _robot_command(self, positions: dict[str, np.ndarray], rotations: dict[str, Rotation]) -> np.ndarray:
-        parts = []
-        for arm in self.arm_names:
-            grip = -1.0 if self.gripper_open[arm] > 0.5 else 1.0
-            parts.append(np.r_[positions[arm], rotations[arm].as_rotvec(), grip])
-        return np.concatenate(parts)
+    def _robot_command(self, positions: dict[str, np.ndarray], rotations: dict[str, Rotation]) -> ArmCommand:
+        quats = np.stack([np.roll(rotations[arm].as_quat(), 1) for arm in self.arm_names])  # (w, x, y, z)
+        return ArmCommand(np.stack([positions[arm] for arm in self.arm_names]), quats,
+                          np.array([self.gripper_open[arm] for arm in self.arm_names]))
 
-    def _control_step(self, command: np.ndarray) -> None:
-        self.scene.step(command)
+    def _control_step(self, command: ArmCommand) -> None:
+        self.arms.command(command.positions, command.quats_wxyz, command.gripper_open)
+        self.arms.step()
         self.task.on_control_step(self.sim)
         self._steps += 1
         if self._dense is not None:

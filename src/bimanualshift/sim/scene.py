@@ -28,6 +28,7 @@ from robosuite.models.arenas import TableArena  # noqa: E402
 from robosuite.models.tasks import ManipulationTask  # noqa: E402
 
 from bimanualshift.geometry.frames import ArmFrame  # noqa: E402
+from bimanualshift.sim.camera_meshes import lighten_visual_meshes  # noqa: E402
 from bimanualshift.sim.cameras import STATIC_CAMERAS, camera_xml  # noqa: E402
 from bimanualshift.sim.task import Task  # noqa: E402
 
@@ -79,6 +80,10 @@ class RobosuiteScene(ManipulationEnv):
         for robot, arm in zip(self.robots, self.arm_names):
             xpos = np.array(robot.robot_model.base_xpos_offset["table"](TABLE_SIZE[0]))
             robot.robot_model.set_base_xpos(xpos + np.array([0.0, ys[arm], 0.0]))
+            # MuJoCo compensates the arm's and gripper's weight (sim.arm_control's servos do not); it counts the
+            # compensated bodies at compile time, so this must be in the XML.
+            for body in robot.robot_model.worldbody.iter("body"):
+                body.set("gravcomp", "1")
         arena = TableArena(table_full_size=TABLE_SIZE, table_offset=(0.0, 0.0, TABLE_TOP_Z))
         arena.set_origin([0, 0, 0])
         self.model = ManipulationTask(mujoco_arena=arena, mujoco_robots=[r.robot_model for r in self.robots])
@@ -94,6 +99,7 @@ class RobosuiteScene(ManipulationEnv):
                 self.model.contact.extend(list(element))
             else:
                 self.model.worldbody.append(element)
+        lighten_visual_meshes(self.model.root)
 
     def reward(self, action: np.ndarray | None = None) -> float:
         return 0.0
