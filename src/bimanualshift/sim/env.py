@@ -19,7 +19,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation, Slerp
 
 from bimanualshift.geometry.frames import ArmFrame, canonical_quat
-from bimanualshift.sim.arm_control import ArmIndexes, ServoArms
+from bimanualshift.sim.arm_control import ArmIndexes, OscArms
 from bimanualshift.sim.cameras import CameraRig, default_camera_names, wrist_camera_names
 from bimanualshift.sim.perturb_scene import apply_to_model, mirror_bodies
 from bimanualshift.sim.perturbations import Perturbations
@@ -68,7 +68,7 @@ class ManipulationEnv(gym.Env):
         self.sim = SimHandle(self.model, self.data, TABLE_TOP_Z)
         self.task.after_compile(self.model)
         apply_to_model(self.model, self.perturbations)
-        self.arms = ServoArms(self.model, self.data, [ArmIndexes.of_robot(self.model, r) for r in self.scene.robots])
+        self.arms = OscArms(self.model, self.data, [ArmIndexes.of_robot(self.model, r) for r in self.scene.robots])
         self._grippers = [(r._ref_gripper_joint_pos_indexes["right"], np.asarray(r.gripper["right"].init_qpos))
                           for r in self.scene.robots]
         # What an episode may change in the model (placements, colours): restored at every reset, so an episode

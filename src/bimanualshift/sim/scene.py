@@ -80,10 +80,6 @@ class RobosuiteScene(ManipulationEnv):
         for robot, arm in zip(self.robots, self.arm_names):
             xpos = np.array(robot.robot_model.base_xpos_offset["table"](TABLE_SIZE[0]))
             robot.robot_model.set_base_xpos(xpos + np.array([0.0, ys[arm], 0.0]))
-            # MuJoCo compensates the arm's and gripper's weight (sim.arm_control's servos do not); it counts the
-            # compensated bodies at compile time, so this must be in the XML.
-            for body in robot.robot_model.worldbody.iter("body"):
-                body.set("gravcomp", "1")
         arena = TableArena(table_full_size=TABLE_SIZE, table_offset=(0.0, 0.0, TABLE_TOP_Z))
         arena.set_origin([0, 0, 0])
         self.model = ManipulationTask(mujoco_arena=arena, mujoco_robots=[r.robot_model for r in self.robots])
