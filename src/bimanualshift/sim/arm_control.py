@@ -79,7 +79,6 @@ class OscArms:
         self._err_quat = np.zeros(4)
         self._rot_err = np.zeros(3)
         self._mass = np.zeros((model.nv, model.nv))
-        self._bias = np.zeros(model.nv)
         self.goal_pos = np.zeros((n, 3))
         self.goal_quat = np.tile([1.0, 0.0, 0.0, 0.0], (n, 1))
         self.gripper_action = np.zeros((n, 2))
@@ -107,9 +106,12 @@ class OscArms:
 
     def step(self) -> None:
         """One control step: the OSC law every ``OSC_EVERY`` substeps, MuJoCo integrating in between."""
-        for _ in range(SUBSTEPS // OSC_EVERY):
+        done = 0
+        while done < SUBSTEPS:
+            n = min(OSC_EVERY, SUBSTEPS - done)
             self._apply_osc()
-            mujoco.mj_step(self.model, self.data, OSC_EVERY)
+            mujoco.mj_step(self.model, self.data, n)
+            done += n
 
     def _apply_grippers(self) -> None:
         for i, arm in enumerate(self.arms):
@@ -119,14 +121,10 @@ class OscArms:
 
     def _apply_osc(self) -> None:
         m, d = self.model, self.data
-        # Positions, Jacobians and the mass matrix at the current joints (robosuite runs mj_forward here; the
-        # contact and constraint stages it adds are not needed by the law).
-        mujoco.mj_kinematics(m, d)
-        mujoco.mj_comPos(m, d)
-        mujoco.mj_crb(m, d)
+        # Positions, Jacobians, the mass matrix and the bias forces as the last mj_step computed them, at the
+        # start of its last substep (one 2 ms step old; robosuite recomputes them with an mj_forward here, which
+        # costs a whole physics stage for a delay far inside the law's margin).
         mujoco.mj_fullM(m, self._mass, d.qM)
-        mujoco.mj_comVel(m, d)
-        mujoco.mj_rne(m, d, 0, self._bias)
         errors = np.zeros((len(self.arms), 6))
         for i, arm in enumerate(self.arms):
             mujoco.mj_jacSite(m, d, self._jacp, self._jacr, arm.site)
@@ -150,10 +148,10 @@ class OscArms:
         wrench = np.concatenate([lam_p @ wrench_goal[:, :3], lam_r @ wrench_goal[:, 3:]], axis=1)
         torque = (jac_t @ wrench)[:, :, 0]
         # Nullspace pull to the home posture, through the dynamically consistent nullspace (robosuite's form).
-        lam = np.linalg.pinv(inv_full)
+        lam = np.linalg.inv(inv_full + 1e-8 * np.eye(6))
         jbar = mass_inv @ jac_t @ lam  # (n, 7, 6)
         null = np.eye(q.shape[1]) - jbar @ jac
         posture = mass @ (NULLSPACE_KP * (self._home - q) - NULLSPACE_KD * qvel)[:, :, None]
         torque += (null.transpose(0, 2, 1) @ posture)[:, :, 0]
-        torque += self._bias[self._dofs]  # gravity and Coriolis, as robosuite compensates them
+        torque += d.qfrc_bias[self._dofs]  # gravity and Coriolis, as robosuite compensates them
         d.ctrl[self._acts] = torque  # MuJoCo clips to the motors' ctrlrange (the Panda's torque limits)
