@@ -19,7 +19,7 @@ import numpy as np
 from bimanualshift.utils.io import atomic_writer
 
 MAX_FACES = 1500  # per mesh: a Panda link at 128 px covers a few hundred pixels
-CACHE_VERSION = 1  # bump when the decimation changes, so cached meshes are remade
+CACHE_VERSION = 2  # bump when the decimation changes, so cached meshes are remade
 
 
 def cache_dir() -> Path:
@@ -63,6 +63,7 @@ def decimated_copy(source: Path, max_faces: int = MAX_FACES) -> Path | None:
     if target.is_file():
         return target
     mesh = trimesh.load(source, force="mesh", process=False)
+    mesh.merge_vertices()  # OBJ files repeat a vertex per face corner: decimation needs the connectivity
     faces = np.asarray(mesh.faces)
     if len(faces) <= max_faces:
         return None
