@@ -211,8 +211,7 @@ class ManipulationEnv(gym.Env):
         return obs
 
     def render(self) -> np.ndarray:
-        mujoco.mj_forward(self.model, self.data)
-        return self.cameras.render(self.data, depth_and_segmentation=False)[self.camera_names[0]].rgb
+        return self._video_frame((self.camera_names[0],))
 
     # ---- execution -------------------------------------------------------------------------------------
     def eef_pose(self, robot_index: int) -> tuple[np.ndarray, np.ndarray]:
@@ -275,8 +274,11 @@ class ManipulationEnv(gym.Env):
         return frames
 
     def _video_frame(self, cameras: tuple[str, ...]) -> np.ndarray:
-        mujoco.mj_forward(self.model, self.data)
-        return np.concatenate([self.cameras.render_rgb(self.data, c) for c in cameras], axis=1)
+        # Drawn from a copy brought up to date there: the controller reads what the last physics step computed,
+        # so a recorded episode must leave the simulator's own data untouched to stay the same episode.
+        data = copy.copy(self.data)
+        mujoco.mj_forward(self.model, data)
+        return np.concatenate([self.cameras.render_rgb(data, c) for c in cameras], axis=1)
 
     # ---- dense trajectories ----------------------------------------------------------------------------
     def start_dense_recording(self) -> None:
