@@ -32,11 +32,10 @@ from tqdm import tqdm
 from bimanualshift.data.frames import KeyframeObservation, scene_of_env
 from bimanualshift.data.seeds import split_seeds
 from bimanualshift.evaluation.report import git_commit, machine
+from bimanualshift.sim.arm_control import SUBSTEPS
 from bimanualshift.sim.env import ManipulationEnv
 from bimanualshift.sim.task import resolve_task_names
 from bimanualshift.utils.io import atomic_write_json
-
-SUBSTEPS = 25  # 50 ms control step / 2 ms physics step
 
 
 class StepTimer:

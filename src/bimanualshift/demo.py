@@ -13,21 +13,24 @@ import json
 import shlex
 import sys
 import time
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from pathlib import Path
 
 from bimanualshift.configs import RESIDUAL_STEPS
 from bimanualshift.data.collect import collect
 from bimanualshift.data.seeds import split_seeds
 from bimanualshift.encoders.text import default_text_encoder
+from bimanualshift.evaluation.bench import BenchJob, run_bench_episode
 from bimanualshift.evaluation.media import write_strip, write_video
 from bimanualshift.evaluation.report import print_success_table, success_rows, write_result
-from bimanualshift.evaluation.rollout import evaluate
+from bimanualshift.evaluation.rollout import EpisodeRecord, rollout
 from bimanualshift.methods.bimanualshift import load_bimanualshift
 from bimanualshift.methods.frozen_prior import FrozenPriorPerArm
+from bimanualshift.methods.registry import TrainRequest
 from bimanualshift.sim.env import ManipulationEnv
 from bimanualshift.training.pretrain import PretrainConfig, pretrain
 from bimanualshift.training.residual import TrainConfig, train_residual
+from bimanualshift.utils.workers import run_jobs
 
 SHIPPED_PRIOR = Path(__file__).resolve().parents[2] / "checkpoints" / "peract_suite"
 
@@ -88,19 +91,26 @@ def run_demo(cfg: DemoConfig) -> dict:
                                       out=f"{cfg.workdir}/bimanualshift", demos=cfg.demos,
                                       steps=cfg.residual_steps, seed=cfg.seed))
     print(f"[demo] 4/4 evaluating on {cfg.test_episodes} held-out test seeds per method")
+    # Test episodes in worker processes (an episode depends only on its policy, task and seed, so the pool changes
+    # no outcome); then the first test episode of each method again here, recorded for the strip and the video.
+    request = TrainRequest(task=cfg.task, data=data, validation_data=val_data, demos=cfg.demos, prior=prior_path,
+                           out=str(best.parent))
+    methods = {"bimanualshift": str(best), "frozen_prior_per_arm": ""}
+    jobs = [BenchJob(method, cfg.task, seed, checkpoint, asdict(request), max_keyframes=cfg.max_keyframes)
+            for method, checkpoint in methods.items() for seed in test_seeds]
+    episodes = sorted(run_jobs(run_bench_episode, jobs, cfg.workers, desc="demo test episodes", chunksize=1),
+                      key=lambda e: (list(methods).index(e["method"]), e["seed"]))
     text_encoder = default_text_encoder()
-    method = load_bimanualshift(best, text_encoder)
-    baseline = FrozenPriorPerArm.from_pretrained(prior_path, text_encoder)
     env = ManipulationEnv(cfg.task)
-    records = []
     results = Path(cfg.results)
     results.mkdir(parents=True, exist_ok=True)
-    for policy in (method, baseline):
-        recs = evaluate(env, policy, test_seeds, cfg.max_keyframes, record_camera="front")
-        write_strip(results / f"{policy.name}_rollout.png", recs[0].frames)
-        write_video(results / f"{policy.name}_rollout.mp4", recs[0].frames)
-        records.extend(recs)
+    for policy in (load_bimanualshift(best, text_encoder), FrozenPriorPerArm.from_pretrained(prior_path, text_encoder)):
+        frames = rollout(env, policy, test_seeds[0], cfg.max_keyframes, record_camera="front").frames
+        write_strip(results / f"{policy.name}_rollout.png", frames)
+        write_video(results / f"{policy.name}_rollout.mp4", frames)
     env.close()
+    records = [EpisodeRecord(e["method"], e["task"], e["seed"], bool(e["success"]), int(e["keyframes"]),
+                             e["instruction"], stages_done=int(e["stages_done"])) for e in episodes]
     rows = success_rows(records, demos=cfg.demos)
     print_success_table(rows, f"{cfg.task}: {cfg.demos} demos, {cfg.test_episodes} test episodes")
     write_result(results / "summary.json", command, {"train": train_seeds, "validation": val_seeds,

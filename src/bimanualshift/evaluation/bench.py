@@ -155,7 +155,7 @@ def run_bench_episode(job: BenchJob) -> dict[str, Any]:
         write_video(job.video, record.frames)
     return {"task": job.task, "method": job.method, "perturbation": job.perturbation, "seed": job.seed,
             "success": record.success, "keyframes": record.keyframes, "budget": budget,
-            "stages_done": record.stages_done}
+            "stages_done": record.stages_done, "instruction": record.instruction}
 
 
 read_episodes = read_records  # one finished episode per line

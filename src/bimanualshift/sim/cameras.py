@@ -111,8 +111,10 @@ class CameraRig:
         self._rect = mujoco.MjrRect(0, 0, width, height)
         self._camera = mujoco.MjvCamera()
         self._camera.type = mujoco.mjtCamera.mjCAMERA_FIXED
-        self._camera_ids = {name: mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, self.mujoco_names.get(name, name))
-                            for name in names}
+        self._camera_ids = {
+            name: mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, self.mujoco_names.get(name, name))
+            for name in names
+        }
         self.option = mujoco.MjvOption()
         self.option.geomgroup[:] = 0
         self.option.geomgroup[1] = 1  # visual geoms only (robosuite's collision geoms are group 0)
