@@ -104,7 +104,7 @@ def cmd_collect(args: argparse.Namespace) -> None:
     if args.episodes < 1:
         sys.exit("error: --episodes must be at least 1")
     stats = collect(tasks, split_seeds(args.split, args.episodes, args.start), args.out, workers=args.workers,
-                    image_size=args.image_size)
+                    image_size=args.image_size, executor=args.executor)
     for task, s in stats.items():
         print(f"{task}: {s['succeeded']}/{s['attempted']} expert episodes succeeded and were saved "
               f"({s['skipped']} already present) under {Path(args.out) / task}")
@@ -120,7 +120,7 @@ def cmd_experts(args: argparse.Namespace) -> None:
     tasks = _resolve_tasks(args.task)
     started = time.time()
     seeds = split_seeds("test", args.episodes)
-    episodes = check_experts(tasks, seeds, workers=args.workers)
+    episodes = check_experts(tasks, seeds, workers=args.workers, executor=args.executor)
     rows = []
     for task in tasks:
         mine = [e for e in episodes if e.task == task]
@@ -211,24 +211,21 @@ def _quality_job(job: tuple[str, list[int], list[str], int]) -> list[dict]:
 
 
 def cmd_projection_quality(args: argparse.Namespace) -> None:
-    import multiprocessing as mp
     import time
 
     from rich.console import Console
     from rich.table import Table
-    from tqdm import tqdm
 
     from bimanualshift.data.seeds import split_seeds
     from bimanualshift.evaluation.report import write_result
+    from bimanualshift.utils.workers import run_jobs
 
     tasks = _resolve_tasks(args.task)
     seeds = split_seeds("test", args.episodes)
     jobs = [(task, seeds, args.segmenters, args.image_size) for task in tasks]
     started = time.time()
-    rows: list[dict] = []
-    with mp.get_context("spawn").Pool(max(1, args.workers)) as pool:
-        for result in tqdm(pool.imap(_quality_job, jobs), total=len(jobs), desc="projection quality", unit="task"):
-            rows.extend(result)
+    results = run_jobs(_quality_job, jobs, args.workers, desc="projection quality", chunksize=1)
+    rows = [row for task in tasks for result in results if result and result[0]["task"] == task for row in result]
     table = Table(title="arm-conditioned projection: voxels kept (own arm + goal) / removed (other arm)")
     for col in ("task", "segmenter", "arm", "kept", "removed", "keyframes"):
         table.add_column(col)
@@ -256,7 +253,8 @@ def cmd_prior_report(args: argparse.Namespace) -> None:
     seeds = split_seeds("test", args.episodes)
     log = args.log or (str(Path(args.out).with_suffix(".episodes.jsonl")) if args.out else None)
     deadline = started + 60 * args.minutes if args.minutes else None
-    episodes = evaluate_priors(args.prior, tasks, seeds, workers=args.workers, log=log, deadline=deadline)
+    episodes = evaluate_priors(args.prior, tasks, seeds, workers=args.workers, log=log, deadline=deadline,
+                               executor=args.executor)
     rows = prior_rows(args.prior, episodes, tasks, seeds[0])
     counts = sorted({t["episodes"] for r in rows for t in r["tasks"].values()})
     interim = counts != [args.episodes]
@@ -407,6 +405,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--start", type=int, default=0, help="first seed offset within the split (default: 0)")
     p.add_argument("--workers", type=int, default=1, help="parallel worker processes (default: 1)")
     p.add_argument("--image-size", type=int, default=128, help="camera resolution (default: 128)")
+    p.add_argument("--executor", default="local", choices=["local", "ray"],
+                   help="local worker processes (default), or Ray tasks on the cluster RAY_ADDRESS names")
     p.set_defaults(func=cmd_collect)
 
     p = sub.add_parser("experts", help="measure the scripted experts' success rate on test seeds (no rendering)")
@@ -414,6 +414,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--episodes", type=int, default=100, help="seeds per task (default: 100)")
     p.add_argument("--workers", type=int, default=1, help="parallel worker processes (default: 1)")
     p.add_argument("--out", help="write a result JSON here (e.g. results/experts.json)")
+    p.add_argument("--executor", default="local", choices=["local", "ray"],
+                   help="local worker processes (default), or Ray tasks on the cluster RAY_ADDRESS names")
     p.set_defaults(func=cmd_experts)
 
     p = sub.add_parser("snapshot", help="render a picture of each task's first scene (for the docs)")
@@ -466,6 +468,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--log", help="per-episode log a stopped report resumes from (default: OUT with .episodes.jsonl)")
     p.add_argument("--minutes", type=float, default=0.0,
                    help="stop after this long and write an interim result (resume later with the same command)")
+    p.add_argument("--executor", default="local", choices=["local", "ray"],
+                   help="local worker processes (default), or Ray tasks on the cluster RAY_ADDRESS names")
     p.set_defaults(func=cmd_prior_report)
 
     _add_config_command(sub, "pretrain", "pretrain a single-arm prior on single-arm demos only", PretrainConfig,

@@ -6,16 +6,15 @@ builds one environment and reuses it (soft resets) for all its episodes.
 
 from __future__ import annotations
 
-import multiprocessing as mp
 from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from tqdm import tqdm
 
 from bimanualshift.data.episode import Episode, episode_path, write_episode
 from bimanualshift.sim.env import ManipulationEnv
+from bimanualshift.utils.workers import run_jobs
 
 _WORKER_ENVS: dict[str, ManipulationEnv] = {}
 
@@ -86,7 +85,7 @@ def _collect_one(job: CollectJob) -> tuple[str, int, bool]:
 
 
 def collect(tasks: Iterable[str], seeds: Iterable[int], out: str | Path, workers: int = 1,
-            image_size: int = 128, skip_existing: bool = True) -> dict[str, dict[str, int]]:
+            image_size: int = 128, skip_existing: bool = True, executor: str = "local") -> dict[str, dict[str, int]]:
     """Collect expert demos; returns per task {"attempted", "succeeded", "skipped"}."""
     jobs = []
     stats: dict[str, dict[str, int]] = {}
@@ -97,18 +96,7 @@ def collect(tasks: Iterable[str], seeds: Iterable[int], out: str | Path, workers
                 stats[task]["skipped"] += 1
                 continue
             jobs.append(CollectJob(task, int(seed), str(out), image_size))
-    bar = tqdm(total=len(jobs), desc="collect", unit="ep")
-    if workers <= 1:
-        results: Iterable[tuple[str, int, bool]] = map(_collect_one, jobs)
-        for task, _, ok in results:
-            stats[task]["attempted"] += 1
-            stats[task]["succeeded"] += int(ok)
-            bar.update()
-    else:
-        with mp.get_context("spawn").Pool(workers) as pool:
-            for task, _, ok in pool.imap_unordered(_collect_one, jobs):
-                stats[task]["attempted"] += 1
-                stats[task]["succeeded"] += int(ok)
-                bar.update()
-    bar.close()
+    for task, _, ok in run_jobs(_collect_one, jobs, workers, desc="collect", chunksize=1, executor=executor):
+        stats[task]["attempted"] += 1
+        stats[task]["succeeded"] += int(ok)
     return stats

@@ -42,6 +42,7 @@ class BenchConfig:
     residual_steps: int = 0  # training steps of every method; 0: each method's own (MethodSpec.steps, else 1500)
     method_steps: dict = field(default_factory=lambda: {"scratch_voxel": 3000})  # per-method training steps
     workers: int = 2
+    executor: str = "local"  # local: this machine's worker processes; ray: Ray tasks on a cluster (RAY_ADDRESS)
     data: str = "data/bench"
     runs: str = "runs/bench"
     out: str = "results/bench"
@@ -417,7 +418,7 @@ def run_bench(cfg: BenchConfig, command: str | None = None) -> Path:
     todo = [j for j in jobs if (j.task, j.method, j.perturbation, j.seed) not in done]
     if done:
         print(f"[bench] resuming: {len(done)} episodes already recorded, {len(todo)} to go")
-    run_jobs(run_bench_episode, todo, cfg.workers, desc="bench episodes", chunksize=1,
+    run_jobs(run_bench_episode, todo, cfg.workers, desc="bench episodes", chunksize=1, executor=cfg.executor,
              on_result=lambda episode: append_episode(log, episode))
 
     wanted = {(j.task, j.method, j.perturbation, j.seed) for j in jobs}

@@ -63,7 +63,8 @@ def run_prior_episode(job: tuple[str, str, int]) -> PriorEpisode:
 
 
 def evaluate_priors(priors: list[str], tasks: list[str], seeds: list[int], workers: int = 1,
-                    log: str | Path | None = None, deadline: float | None = None) -> list[PriorEpisode]:
+                    log: str | Path | None = None, deadline: float | None = None,
+                    executor: str = "local") -> list[PriorEpisode]:
     """Every (prior, task, seed) episode; with ``log`` each finished one is appended there at once and episodes
     already logged are not run again, so a stopped report resumes. Jobs go seed by seed over every task and prior,
     so a report stopped at ``deadline`` covers the same seeds for all of them."""
@@ -79,6 +80,7 @@ def evaluate_priors(priors: list[str], tasks: list[str], seeds: list[int], worke
             append_record(log, asdict(episode))
 
     results = run_jobs(run_prior_episode, jobs, workers, desc="prior episodes", chunksize=2, on_result=record,
+                       executor=executor,
                        deadline=deadline)
     wanted = {(p, t, s) for s in seeds for t in tasks for p in priors}
     results += [e for k, e in done.items() if k in wanted]

@@ -36,7 +36,8 @@ def _run_job(job: tuple[str, int]) -> ExpertEpisode:
     return run_expert(_ENVS[task], seed)
 
 
-def check_experts(tasks: list[str], seeds: list[int], workers: int = 1) -> list[ExpertEpisode]:
+def check_experts(tasks: list[str], seeds: list[int], workers: int = 1, executor: str = "local"
+                  ) -> list[ExpertEpisode]:
     jobs = [(task, seed) for task in tasks for seed in seeds]
-    results = run_jobs(_run_job, jobs, workers, desc="expert episodes")
+    results = run_jobs(_run_job, jobs, workers, desc="expert episodes", executor=executor)
     return sorted(results, key=lambda e: (e.task, e.seed))
