@@ -25,9 +25,16 @@ from bimanualshift.methods.registry import TrainRequest
 from bimanualshift.perception.observation import ArmObservationBuilder
 from bimanualshift.priors.base import UnimanualPrior
 from bimanualshift.training.augment import Se3Augmentation
+from bimanualshift.training.distributed import init_distributed, loss_module
 from bimanualshift.training.loop import run_training
 from bimanualshift.training.optim import make_optimizer
-from bimanualshift.training.pretrain import PretrainConfig, PriorBatches, build_prior, translation_accuracy
+from bimanualshift.training.pretrain import (
+    PretrainConfig,
+    PriorBatches,
+    build_prior,
+    global_batch_shard,
+    translation_accuracy,
+)
 from bimanualshift.training.samples import ArmSamples, build_arm_samples
 from bimanualshift.utils.io import atomic_write_json
 
@@ -120,6 +127,7 @@ def train_voxel_network(spec: VoxelNetworkSpec, request: TrainRequest, out: Path
                         lr: float = 1e-3, batch_size: int = 4, checkpoint_every: int = 250,
                         optimizer: str = "lamb") -> Path:
     started = time.time()
+    ctx = init_distributed()  # one process, or one of torchrun's
     out.mkdir(parents=True, exist_ok=True)
     paths = list_episodes(request.data, request.task)[: request.demos]
     if not paths:
@@ -140,14 +148,16 @@ def train_voxel_network(spec: VoxelNetworkSpec, request: TrainRequest, out: Path
         model.set_normalization(train.actions["position"].reshape(-1, 3))
     optimiser = make_optimizer(optimizer, model.parameters(), lr=lr)
     augmentation = Se3Augmentation(PretrainConfig.augment_translation_m, PretrainConfig.augment_yaw_deg)
-    atomic_write_json(out / "train_config.json", {"network": spec.name, "kind": spec.kind, "request": asdict(request),
-                                                 "size": size, "lr": lr, "batch_size": batch_size,
-                                                 "optimizer": optimizer})
+    if ctx.is_main:
+        atomic_write_json(out / "train_config.json", {
+            "network": spec.name, "kind": spec.kind, "request": asdict(request), "size": size, "lr": lr,
+            "batch_size": batch_size, "optimizer": optimizer})
+
+    losses = loss_module(model, ctx)
 
     def step_fn(step: int, gen: torch.Generator) -> dict[str, torch.Tensor]:
         index = torch.randint(len(train), (batch_size,), generator=gen)
-        inputs, actions = train.batch(index, gen, augmentation)
-        return model.compute_loss(inputs, actions, gen)
+        return losses(*global_batch_shard(train, index, gen, augmentation, ctx), gen)
 
     def validate(step: int) -> float:
         return -translation_accuracy(model, val)
@@ -159,7 +169,8 @@ def train_voxel_network(spec: VoxelNetworkSpec, request: TrainRequest, out: Path
                                                    "validation_translation_accuracy": -value})
 
     result = run_training(out, model, optimiser, request.steps, step_fn, request.seed, checkpoint_every, validate,
-                          on_best, desc=f"train {spec.name}")
-    atomic_write_json(out / "summary.json", {**result, "wall_time_s": round(time.time() - started, 1),
-                                             "train_samples": len(train)})
+                          on_best, desc=f"train {spec.name}", ctx=ctx)
+    if ctx.is_main:
+        atomic_write_json(out / "summary.json", {**result, "wall_time_s": round(time.time() - started, 1),
+                                                 "train_samples": len(train), "processes": ctx.world_size})
     return out / "best"

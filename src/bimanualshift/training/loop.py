@@ -17,6 +17,7 @@ from torch import nn
 from tqdm import tqdm
 
 from bimanualshift.training.checkpoint import latest_checkpoint, load_checkpoint, save_checkpoint
+from bimanualshift.training.distributed import Distributed
 from bimanualshift.utils.io import atomic_write_json
 
 StepFn = Callable[[int, torch.Generator], dict[str, torch.Tensor]]
@@ -30,7 +31,10 @@ def step_generator(seed: int, step: int) -> torch.Generator:
 def run_training(run_dir: str | Path, model: nn.Module, optimizer: torch.optim.Optimizer, steps: int,
                  step_fn: StepFn, seed: int, checkpoint_every: int = 100,
                  validate_fn: ValidateFn | None = None, on_best: Callable[[int, float, float], None] | None = None,
-                 desc: str = "train") -> dict[str, Any]:
+                 desc: str = "train", ctx: Distributed | None = None) -> dict[str, Any]:
+    """Train for ``steps``; with ``ctx`` (several ``torchrun`` processes) every rank steps, losses are logged as
+    their mean over the ranks, and only rank 0 validates and writes."""
+    ctx = ctx or Distributed()
     run_dir = Path(run_dir)
     start, history, best = 0, [], {"step": None, "value": float("inf")}
     elapsed_before = 0.0  # training seconds spent by earlier, interrupted runs of this directory
@@ -40,7 +44,7 @@ def run_training(run_dir: str | Path, model: nn.Module, optimizer: torch.optim.O
         start, history, best = state["step"], state.get("history", []), state.get("best", best)
         elapsed_before = float(state.get("elapsed_s", 0.0))
     resumed_at = time.time()
-    if start == 0 and validate_fn is not None:
+    if start == 0 and validate_fn is not None and ctx.is_main:
         # The untrained model is a candidate too: a residual branch that starts as the identity must beat
         # the frozen prior alone on validation data before a trained checkpoint replaces it.
         model.eval()
@@ -48,17 +52,17 @@ def run_training(run_dir: str | Path, model: nn.Module, optimizer: torch.optim.O
         history.append({"step": 0, "elapsed_s": 0.0, "validation": best["value"]})
         if on_best is not None:
             on_best(0, best["value"], 0.0)
-    bar = tqdm(range(start, steps), initial=start, total=steps, desc=desc, unit="step")
+    bar = tqdm(range(start, steps), initial=start, total=steps, desc=desc, unit="step", disable=not ctx.is_main)
     for step in bar:
         model.train()
         losses = step_fn(step, step_generator(seed, step))
         optimizer.zero_grad(set_to_none=True)
         losses["total"].backward()
         optimizer.step()
-        logged = {k: round(float(v.detach()), 5) for k, v in losses.items()}
+        logged = {k: round(float(ctx.mean(v.detach())), 5) for k, v in losses.items()}
         bar.set_postfix(loss=logged["total"])
         done = step + 1
-        if done % checkpoint_every == 0 or done == steps:
+        if (done % checkpoint_every == 0 or done == steps) and ctx.is_main:
             elapsed = round(elapsed_before + time.time() - resumed_at, 1)
             record: dict[str, Any] = {"step": done, "elapsed_s": elapsed, **logged}
             if validate_fn is not None:
@@ -72,6 +76,7 @@ def run_training(run_dir: str | Path, model: nn.Module, optimizer: torch.optim.O
             history.append(record)
             save_checkpoint(run_dir, done, model, optimizer, {"history": history, "best": best, "elapsed_s": elapsed})
             atomic_write_json(run_dir / "history.json", {"history": history, "best": best})
+    ctx.barrier()  # every rank ends with rank 0's last checkpoint on disk
     # Training time over every invocation of this directory (a resumed run's wall time covers only itself).
     training_time_s = history[-1]["elapsed_s"] if history else round(elapsed_before, 1)
     return {"history": history, "best": best, "training_time_s": training_time_s}

@@ -25,6 +25,7 @@ from bimanualshift.perception.observation import ArmObservationBuilder
 from bimanualshift.priors import PRIORS, UnimanualPrior
 from bimanualshift.sim.task import resolve_task_names, task_names
 from bimanualshift.training.augment import Se3Augmentation, transform_points, transform_quats, transform_voxels
+from bimanualshift.training.distributed import Distributed, init_distributed, loss_module
 from bimanualshift.training.loop import run_training
 from bimanualshift.training.optim import make_optimizer
 from bimanualshift.training.samples import ArmSamples, action_chunks, build_arm_samples
@@ -116,6 +117,17 @@ def augment_batch(voxels: torch.Tensor, proprio: torch.Tensor, actions: dict[str
     return transform_voxels(voxels, grid, yaw, translation), proprio, actions
 
 
+def global_batch_shard(batches: PriorBatches, index: torch.Tensor, generator: torch.Generator,
+                       augmentation: Se3Augmentation | None, ctx: Distributed
+                       ) -> tuple[tuple[torch.Tensor, ...], dict[str, torch.Tensor]]:
+    """The global batch ``index`` (augmented as one process would), cut to this rank's slice."""
+    inputs, actions = batches.batch(index, generator, augmentation)
+    if not ctx.enabled:
+        return inputs, actions
+    mine = ctx.shard(len(index), torch.arange(len(index)))
+    return tuple(x[mine] for x in inputs), {k: v[mine] for k, v in actions.items()}
+
+
 def translation_accuracy(model: UnimanualPrior, batches: PriorBatches, tolerance_m: float = 0.03) -> float:
     """Fraction of keyframes whose predicted position is within ``tolerance_m`` of the expert's."""
     hits = []
@@ -181,8 +193,10 @@ def pretrain(cfg: PretrainConfig) -> Path:
     started = time.time()
     kind = prior_type(cfg.prior)
     out = Path(cfg.out)
-    out.mkdir(parents=True, exist_ok=True)
-    atomic_write_json(out / "config.json", asdict(cfg))
+    ctx = init_distributed()  # one process, or one of torchrun's
+    if ctx.is_main:
+        out.mkdir(parents=True, exist_ok=True)
+        atomic_write_json(out / "config.json", asdict(cfg))
     torch.manual_seed(cfg.seed)
     model = build_prior(cfg)
     prior_cfg = model.config
@@ -210,10 +224,11 @@ def pretrain(cfg: PretrainConfig) -> Path:
     augmentation = (Se3Augmentation(cfg.augment_translation_m, cfg.augment_yaw_deg)
                     if cfg.augment_translation_m > 0 or cfg.augment_yaw_deg > 0 else None)
 
+    losses = loss_module(model, ctx)
+
     def step_fn(step: int, gen: torch.Generator) -> dict[str, torch.Tensor]:
         index = torch.randint(len(train), (cfg.batch_size,), generator=gen)
-        inputs, actions = train.batch(index, gen, augmentation)
-        return model.compute_loss(inputs, actions, gen)
+        return losses(*global_batch_shard(train, index, gen, augmentation, ctx), gen)
 
     def validate(step: int) -> float:
         return -translation_accuracy(model, val if val is not None else train)
@@ -228,7 +243,9 @@ def pretrain(cfg: PretrainConfig) -> Path:
             sum(p.numel() for p in model.parameters()), seeds_tried(paths), seeds_tried(val_paths)))
 
     result = run_training(out, model, optimizer, cfg.steps, step_fn, cfg.seed, cfg.checkpoint_every,
-                          validate, on_best, desc=f"pretrain {kind}")
-    summary = {**result, "wall_time_s": round(time.time() - started, 1), "train_samples": len(train)}
-    atomic_write_json(out / "summary.json", summary)
+                          validate, on_best, desc=f"pretrain {kind}", ctx=ctx)
+    summary = {**result, "wall_time_s": round(time.time() - started, 1), "train_samples": len(train),
+               "processes": ctx.world_size}
+    if ctx.is_main:
+        atomic_write_json(out / "summary.json", summary)
     return out / "best"
