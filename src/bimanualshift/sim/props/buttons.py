@@ -14,10 +14,7 @@ BUTTON_TOP = 0.02 + 0.024  # cap top above the table when released
 
 
 def button_xml(name: str, square: bool = False) -> str:
-    """A push button: a grey housing and a spring-loaded coloured cap on a vertical slide joint.
-
-    The cap travels inside its housing down to the joint limit; it does not collide with the housing (MuJoCo
-    filters parent-child contacts only below a moving body, and the housing is welded to the world)."""
+    """A push button: a grey housing and a spring-loaded coloured cap on a vertical slide joint."""
     cap = (f'type="box" size="{BUTTON_RADIUS * 0.9} {BUTTON_RADIUS * 0.9} 0.012"' if square
            else f'type="cylinder" size="{BUTTON_RADIUS} 0.012"')
     return f"""
@@ -31,8 +28,7 @@ def button_xml(name: str, square: bool = False) -> str:
     <geom name="{name}_cap" {cap} pos="0 0 0.012" rgba="1 0 0 1"
           group="1"/>
   </body>
-</body>
-<contact><exclude body1="{name}" body2="{name}_cap"/></contact>"""
+</body>"""
 
 
 def place_button(sim: SimHandle, name: str, xy: np.ndarray) -> None:
