@@ -82,3 +82,20 @@ def test_euler_bins_round_trip_within_half_a_bin() -> None:
     back = euler_bins_to_quat(quat_to_euler_bins(q, 10.0), 10.0)
     angle = (Rotation.from_quat(back) * Rotation.from_quat(q).inv()).magnitude()
     assert np.rad2deg(angle) < 10.0
+
+
+def test_slerp_and_rotation_angle_match_scipy() -> None:
+    from scipy.spatial.transform import Rotation, Slerp
+
+    from bimanualshift.geometry.frames import rotation_angle, slerp
+
+    rng = np.random.default_rng(3)
+    for _ in range(50):
+        a, b = Rotation.random(2, random_state=rng)
+        reference = Slerp([0.0, 1.0], Rotation.concatenate([a, b]))
+        for t in (0.0, 0.3, 1.0):
+            ours = Rotation.from_quat(slerp(a.as_quat(), b.as_quat(), t))
+            assert (ours * reference(t).inv()).magnitude() < 1e-7
+        assert abs(rotation_angle(a.as_quat(), b.as_quat()) - (b * a.inv()).magnitude()) < 1e-7
+    q = Rotation.random(random_state=rng).as_quat()
+    assert rotation_angle(q, -q) < 1e-7  # q and -q are the same rotation

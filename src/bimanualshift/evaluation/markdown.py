@@ -102,6 +102,31 @@ def generic_table(result: dict[str, Any]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def sim_profile_table(result: dict[str, Any]) -> str:
+    """Per task, where a step's and a keyframe's time goes, before and after a change side by side."""
+    by_task: dict[str, dict[str, dict[str, Any]]] = {}
+    for r in result["rows"]:
+        by_task.setdefault(r["task"], {})[r["label"]] = r
+    labels = list(dict.fromkeys(r["label"] for r in result["rows"]))
+    lines = ["| task | " + " | ".join(f"control ms ({lb}) | physics ms ({lb}) | ratio ({lb}) | observation ms ({lb})"
+                                        f" | expert episodes / min ({lb})" for lb in labels) + " |",
+             "|---|" + "---|---|---|---|---|" * len(labels)]
+    for task, rows in by_task.items():
+        cells = []
+        for lb in labels:
+            r = rows.get(lb)
+            cells += ([f"{r['control_step_ms']:.1f}", f"{r['physics_ms']:.1f}", f"{r['control_over_physics']:.2f}",
+                       f"{r['observation_ms']:.0f}", f"{r['expert_episodes_per_min']:.1f}"] if r else ["–"] * 5)
+        lines.append(f"| {task} | " + " | ".join(cells) + " |")
+    lines.append("")
+    commands = "; ".join(f"{lb}: `{c}` at commit `{next(r['commit'] for r in result['rows'] if r['label'] == lb)[:12]}`"
+                         for lb, c in result.get("commands", {}).items())
+    lines.append(f"Produced by {commands} ({result['machine']}). {result['notes']}.")
+    for lb, note in result.get("notes_by_label", {}).items():
+        lines.append(f"*{lb}*: {note}.")
+    return "\n".join(lines) + "\n"
+
+
 def table_for(result: dict[str, Any]) -> str:
     """Expert measurements, success rates of methods, or a generic table of whatever the rows hold."""
     first = result["rows"][0] if result["rows"] else {}
@@ -118,6 +143,8 @@ def table_for(result: dict[str, Any]) -> str:
         return projection_quality_table(result)
     if "bimanual" in first:
         return experts_table(result)
+    if "control_step_ms" in first:
+        return sim_profile_table(result)
     if "method" in first and "success" in first:
         return success_table(result)
     return generic_table(result)

@@ -62,6 +62,26 @@ def canonical_quat(quat: np.ndarray) -> np.ndarray:
     return np.where(q[..., 3:4] < 0, -q, q)
 
 
+def rotation_angle(a: np.ndarray, b: np.ndarray) -> float:
+    """The angle (rad) of the rotation between two unit quaternions (components in the same order in both)."""
+    w = abs(float(np.dot(a, b)))
+    return 2.0 * float(np.arctan2(np.sqrt(max(0.0, 1.0 - w * w)), w))
+
+
+def slerp(a: np.ndarray, b: np.ndarray, t: float) -> np.ndarray:
+    """The unit quaternion a fraction ``t`` of the way from ``a`` to ``b`` along the shorter rotation."""
+    a, b = np.asarray(a, np.float64), np.asarray(b, np.float64)
+    dot = float(np.dot(a, b))
+    if dot < 0.0:
+        b, dot = -b, -dot
+    if dot > 0.9995:  # nearly the same rotation: linear interpolation is exact to rounding
+        q = a + t * (b - a)
+        return q / np.linalg.norm(q)
+    theta = np.arccos(dot) * t
+    ortho = b - a * dot
+    return a * np.cos(theta) + ortho / np.linalg.norm(ortho) * np.sin(theta)
+
+
 def quat_to_euler_bins(quat: np.ndarray, bin_degrees: float) -> np.ndarray:
     """Discretise a rotation into per-axis bins of its xyz Euler angles (PerAct's rotation output)."""
     euler = Rotation.from_quat(quat).as_euler("xyz", degrees=True)  # each in (-180, 180]

@@ -25,9 +25,10 @@ from dataclasses import dataclass
 
 import mujoco
 import numpy as np
+from numba import njit
 
 SUBSTEPS = 25  # physics steps of 2 ms per 50 ms control step
-OSC_EVERY = 5  # physics steps between two evaluations of the OSC law (100 Hz)
+OSC_EVERY = 1  # physics steps between two evaluations of the OSC law (every substep, as robosuite)
 OSC_KP = 300.0  # robosuite's OSC gain as this project configures it (sim.scene used kp = 300)
 OSC_KD = 2.0 * np.sqrt(OSC_KP)  # critically damped
 NULLSPACE_KP = 10.0  # robosuite's pull towards the home posture, in the nullspace
@@ -72,15 +73,14 @@ class OscArms:
         self._qpos = np.stack([a.qpos for a in arms])
         self._acts = np.stack([a.actuators for a in arms])
         self._home = np.stack([a.home for a in arms])
-        self._jacp = np.zeros((3, model.nv))
-        self._jacr = np.zeros((3, model.nv))
-        self._jac = np.zeros((n, 6, len(arms[0].dofs)))
-        self._quat = np.zeros(4)
-        self._err_quat = np.zeros(4)
-        self._rot_err = np.zeros(3)
+        self._jacp = np.zeros((n, 3, model.nv))
+        self._jacr = np.zeros((n, 3, model.nv))
+        self._mat9 = np.zeros(9)
         self._mass = np.zeros((model.nv, model.nv))
+        self._bias = np.zeros(model.nv)
+        self._sites = np.array([a.site for a in arms])
         self.goal_pos = np.zeros((n, 3))
-        self.goal_quat = np.tile([1.0, 0.0, 0.0, 0.0], (n, 1))
+        self.goal_mat = np.tile(np.eye(3), (n, 1, 1))
         self.gripper_action = np.zeros((n, 2))
 
     # ---- per episode ------------------------------------------------------------------------------------------
@@ -89,7 +89,7 @@ class OscArms:
         d = self.data
         for i, arm in enumerate(self.arms):
             self.goal_pos[i] = d.site_xpos[arm.site]
-            mujoco.mju_mat2Quat(self.goal_quat[i], d.site_xmat[arm.site])
+            self.goal_mat[i] = d.site_xmat[arm.site].reshape(3, 3)
             self.gripper_action[i] = (1.0, -1.0)
         self._apply_grippers()
         d.ctrl[self._acts] = 0.0
@@ -98,7 +98,9 @@ class OscArms:
     def command(self, positions: np.ndarray, quats_wxyz: np.ndarray, gripper_open: np.ndarray) -> None:
         """Set every arm's goal pose and gripper for the next control step (world frame)."""
         self.goal_pos[:] = positions
-        self.goal_quat[:] = quats_wxyz
+        for i, quat in enumerate(quats_wxyz):
+            mujoco.mju_quat2Mat(self._mat9, quat)
+            self.goal_mat[i] = self._mat9.reshape(3, 3)
         direction = np.where(np.asarray(gripper_open) > 0.5, -1.0, 1.0)[:, None]  # robosuite: -1 opens
         self.gripper_action[:] = np.clip(self.gripper_action + np.array([-1.0, 1.0]) * GRIPPER_RAMP * direction,
                                          -1.0, 1.0)
@@ -121,37 +123,62 @@ class OscArms:
 
     def _apply_osc(self) -> None:
         m, d = self.model, self.data
-        # Positions, Jacobians, the mass matrix and the bias forces as the last mj_step computed them, at the
-        # start of its last substep (one 2 ms step old; robosuite recomputes them with an mj_forward here, which
-        # costs a whole physics stage for a delay far inside the law's margin).
+        # The state's positions, Jacobians, mass matrix and bias forces, as robosuite's mj_forward before each
+        # substep gives them, without the collision and constraint stages the law does not read.
+        mujoco.mj_kinematics(m, d)
+        mujoco.mj_comPos(m, d)
+        mujoco.mj_crb(m, d)
+        mujoco.mj_comVel(m, d)
+        mujoco.mj_rne(m, d, 0, self._bias)
         mujoco.mj_fullM(m, self._mass, d.qM)
-        errors = np.zeros((len(self.arms), 6))
-        for i, arm in enumerate(self.arms):
-            mujoco.mj_jacSite(m, d, self._jacp, self._jacr, arm.site)
-            self._jac[i, :3] = self._jacp[:, arm.dofs]
-            self._jac[i, 3:] = self._jacr[:, arm.dofs]
-            mujoco.mju_mat2Quat(self._quat, d.site_xmat[arm.site])
-            mujoco.mju_negQuat(self._err_quat, self._quat)
-            mujoco.mju_mulQuat(self._err_quat, self.goal_quat[i], self._err_quat)
-            mujoco.mju_quat2Vel(self._rot_err, self._err_quat, 1.0)
-            errors[i, :3] = self.goal_pos[i] - d.site_xpos[arm.site]
-            errors[i, 3:] = self._rot_err
-        q, qvel = d.qpos[self._qpos], d.qvel[self._dofs]  # (n, 7)
-        mass = self._mass[self._dofs[:, :, None], self._dofs[:, None, :]]  # (n, 7, 7)
+        for i, site in enumerate(self._sites):
+            mujoco.mj_jacSite(m, d, self._jacp[i], self._jacr[i], site)
+        # Writes the torques into ctrl; MuJoCo clips them to the motors' ctrlrange (the Panda's torque limits).
+        osc_torques(self._jacp, self._jacr, self._mass, self._bias, self._dofs, self._qpos, self._sites,
+                    self._acts, d.site_xpos, d.site_xmat, d.qpos, d.qvel, self.goal_pos, self.goal_mat, self._home,
+                    d.ctrl)
+
+
+@njit(cache=True, nogil=True)
+def osc_torques(jacp: np.ndarray, jacr: np.ndarray, full_mass: np.ndarray, bias: np.ndarray, dofs: np.ndarray,
+                qpos_adr: np.ndarray, sites: np.ndarray, actuators: np.ndarray, site_xpos: np.ndarray,
+                site_xmat: np.ndarray, qpos: np.ndarray, qvel: np.ndarray, goal_pos: np.ndarray, goal_mat: np.ndarray,
+                home: np.ndarray, ctrl: np.ndarray) -> None:
+    """robosuite's OSC_POSE torques for every arm, written into ``ctrl`` (compiled: it runs every substep).
+
+    Per arm: position error and robosuite's orientation error (half the sum of the cross products of the current
+    and goal rotation matrices' columns), the twist J qdot, the uncoupled operational-space inertias, the
+    dynamically consistent nullspace pull to the home posture, and the bias forces."""
+    n, k = dofs.shape
+    for i in range(n):
+        idx = dofs[i]
+        mass = np.empty((k, k))
+        j = np.empty((6, k))
+        v = np.empty(k)
+        q = np.empty(k)
+        for r in range(k):
+            v[r] = qvel[idx[r]]
+            q[r] = qpos[qpos_adr[i, r]]
+            for c in range(k):
+                mass[r, c] = full_mass[idx[r], idx[c]]
+            for a in range(3):
+                j[a, r] = jacp[i, a, idx[r]]
+                j[3 + a, r] = jacr[i, a, idx[r]]
         mass_inv = np.linalg.inv(mass)
-        jac, jac_t = self._jac, self._jac.transpose(0, 2, 1)
-        velocity = jac @ qvel[:, :, None]  # (n, 6, 1) end-effector twist
-        wrench_goal = OSC_KP * errors[:, :, None] - OSC_KD * velocity
-        inv_full = jac @ mass_inv @ jac_t  # (n, 6, 6)
-        lam_p = np.linalg.inv(inv_full[:, :3, :3])
-        lam_r = np.linalg.inv(inv_full[:, 3:, 3:])
-        wrench = np.concatenate([lam_p @ wrench_goal[:, :3], lam_r @ wrench_goal[:, 3:]], axis=1)
-        torque = (jac_t @ wrench)[:, :, 0]
-        # Nullspace pull to the home posture, through the dynamically consistent nullspace (robosuite's form).
-        lam = np.linalg.inv(inv_full + 1e-8 * np.eye(6))
-        jbar = mass_inv @ jac_t @ lam  # (n, 7, 6)
-        null = np.eye(q.shape[1]) - jbar @ jac
-        posture = mass @ (NULLSPACE_KP * (self._home - q) - NULLSPACE_KD * qvel)[:, :, None]
-        torque += (null.transpose(0, 2, 1) @ posture)[:, :, 0]
-        torque += d.qfrc_bias[self._dofs]  # gravity and Coriolis, as robosuite compensates them
-        d.ctrl[self._acts] = torque  # MuJoCo clips to the motors' ctrlrange (the Panda's torque limits)
+        twist = j @ v
+        current = site_xmat[sites[i]].reshape(3, 3)
+        error = np.zeros(6)
+        error[:3] = goal_pos[i] - site_xpos[sites[i]]
+        for col in range(3):
+            error[3:] += 0.5 * np.cross(current[:, col], goal_mat[i][:, col])
+        wrench_goal = OSC_KP * error - OSC_KD * twist
+        inv_full = j @ mass_inv @ j.T
+        wrench = np.empty(6)
+        wrench[:3] = np.linalg.inv(inv_full[:3, :3]) @ wrench_goal[:3]
+        wrench[3:] = np.linalg.inv(inv_full[3:, 3:]) @ wrench_goal[3:]
+        jbar = mass_inv @ j.T @ np.linalg.inv(inv_full)
+        null = np.eye(k) - jbar @ j
+        posture = mass @ (NULLSPACE_KP * (home[i] - q) - NULLSPACE_KD * v)
+        torque = j.T @ wrench + null.T @ posture
+        for r in range(k):
+            ctrl[actuators[i, r]] = torque[r] + bias[idx[r]]

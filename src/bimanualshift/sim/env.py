@@ -16,9 +16,8 @@ from typing import Any
 import gymnasium as gym
 import mujoco
 import numpy as np
-from scipy.spatial.transform import Rotation, Slerp
 
-from bimanualshift.geometry.frames import ArmFrame, canonical_quat
+from bimanualshift.geometry.frames import ArmFrame, canonical_quat, rotation_angle, slerp
 from bimanualshift.sim.arm_control import ArmIndexes, OscArms
 from bimanualshift.sim.cameras import CameraRig, default_camera_names, wrist_camera_names
 from bimanualshift.sim.perturb_scene import apply_to_model, mirror_bodies
@@ -218,8 +217,9 @@ class ManipulationEnv(gym.Env):
         robot = self.scene.robots[robot_index]
         site = robot.eef_site_id["right"]
         pos = self.data.site_xpos[site].copy()
-        quat = canonical_quat(Rotation.from_matrix(self.data.site_xmat[site].reshape(3, 3)).as_quat())
-        return pos, quat
+        wxyz = np.empty(4)
+        mujoco.mju_mat2Quat(wxyz, self.data.site_xmat[site])  # MuJoCo's own conversion: the executor's hot path
+        return pos, canonical_quat(np.roll(wxyz, -1))
 
     def _parse_action(self, action: np.ndarray) -> Keyframe:
         a = np.asarray(action, dtype=np.float64)
@@ -243,8 +243,8 @@ class ManipulationEnv(gym.Env):
             targets[arm] = ArmAction(row[:3], canonical_quat(row[3:7]), float(row[7] > 0.5), float(row[8] > 0.5))
         return targets
 
-    def _robot_command(self, positions: dict[str, np.ndarray], rotations: dict[str, Rotation]) -> ArmCommand:
-        quats = np.stack([np.roll(rotations[arm].as_quat(), 1) for arm in self.arm_names])  # (w, x, y, z)
+    def _robot_command(self, positions: dict[str, np.ndarray], quats_xyzw: dict[str, np.ndarray]) -> ArmCommand:
+        quats = np.stack([np.roll(quats_xyzw[arm], 1) for arm in self.arm_names])  # (w, x, y, z)
         return ArmCommand(np.stack([positions[arm] for arm in self.arm_names]), quats,
                           np.array([self.gripper_open[arm] for arm in self.arm_names]))
 
@@ -307,7 +307,7 @@ class ManipulationEnv(gym.Env):
         positions, rotations = {}, {}
         for i, arm in enumerate(self.arm_names):
             pos, quat = self.eef_pose(i)
-            positions[arm], rotations[arm] = pos, Rotation.from_quat(quat)
+            positions[arm], rotations[arm] = pos, quat
         for _ in range(steps):
             self._control_step(self._robot_command(positions, rotations))
 
@@ -319,11 +319,9 @@ class ManipulationEnv(gym.Env):
         """
         start = {arm: self.eef_pose(i) for i, arm in enumerate(self.arm_names)}
         cmd_pos = {arm: start[arm][0].copy() for arm in self.arm_names}
-        slerps, fractions, rot_steps = {}, {}, {}
+        fractions, rot_steps = {}, {}
         for arm in self.arm_names:
-            r0, r1 = Rotation.from_quat(start[arm][1]), Rotation.from_quat(targets[arm].quat)
-            slerps[arm] = Slerp([0.0, 1.0], Rotation.concatenate([r0, r1]))
-            angle = (r1 * r0.inv()).magnitude()
+            angle = rotation_angle(start[arm][1], targets[arm].quat)
             rot_steps[arm] = 1.0 if angle < 1e-6 else min(1.0, max_step_rad / angle)
             fractions[arm] = 0.0
         reached = False
@@ -336,7 +334,7 @@ class ManipulationEnv(gym.Env):
                 dist = np.linalg.norm(delta)
                 cmd_pos[arm] = cmd_pos[arm] + (delta if dist <= max_step_m else delta * max_step_m / dist)
                 fractions[arm] = min(1.0, fractions[arm] + rot_steps[arm])
-                rotations[arm] = slerps[arm](fractions[arm])
+                rotations[arm] = slerp(start[arm][1], targets[arm].quat, fractions[arm])
             self._control_step(self._robot_command(cmd_pos, rotations))
             reached = all(self._pose_error(i, targets[arm]) for i, arm in enumerate(self.arm_names))
             if reached:
@@ -352,15 +350,14 @@ class ManipulationEnv(gym.Env):
         if changed:
             for arm in changed:
                 self.gripper_open[arm] = targets[arm].gripper_open
-            final_rot = {arm: Rotation.from_quat(targets[arm].quat) for arm in self.arm_names}
+            final_rot = {arm: canonical_quat(targets[arm].quat) for arm in self.arm_names}
             for _ in range(12):
                 self._control_step(self._robot_command(cmd_pos, final_rot))
         return reached
 
     def _pose_error(self, robot_index: int, target: ArmAction, tol_m: float = 0.006, tol_rad: float = 0.06) -> bool:
         pos, quat = self.eef_pose(robot_index)
-        ang = (Rotation.from_quat(target.quat) * Rotation.from_quat(quat).inv()).magnitude()
-        return bool(np.linalg.norm(pos - target.position) < tol_m and ang < tol_rad)
+        return bool(np.linalg.norm(pos - target.position) < tol_m and rotation_angle(target.quat, quat) < tol_rad)
 
     def close(self) -> None:
         self.cameras.close()

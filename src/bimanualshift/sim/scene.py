@@ -1,7 +1,8 @@
 """The robosuite scene: one or two Franka Pandas side by side facing a table, plus a task's objects.
 
-robosuite supplies the robots, grippers, table arena and the operational-space controller; the task
-supplies its objects as MJCF. Robots are commanded with absolute end-effector poses in the world frame.
+robosuite supplies the robots, grippers and table arena; the task supplies its objects as MJCF. robosuite builds
+the model only: its operational-space law runs in ``sim.arm_control``, once per 5 physics substeps, and the
+cameras draw low-polygon copies of its visual meshes (``sim.camera_meshes``).
 """
 
 from __future__ import annotations
@@ -28,6 +29,7 @@ from robosuite.models.arenas import TableArena  # noqa: E402
 from robosuite.models.tasks import ManipulationTask  # noqa: E402
 
 from bimanualshift.geometry.frames import ArmFrame  # noqa: E402
+from bimanualshift.sim.arm_control import OSC_KP  # noqa: E402
 from bimanualshift.sim.camera_meshes import lighten_visual_meshes  # noqa: E402
 from bimanualshift.sim.cameras import STATIC_CAMERAS, camera_xml  # noqa: E402
 from bimanualshift.sim.task import Task  # noqa: E402
@@ -44,12 +46,14 @@ def arm_base_y(task: Task) -> dict[str, float]:
 
 
 def controller_config() -> dict:
+    """The controller robosuite builds its robots with. It never runs: ``sim.arm_control`` evaluates the same
+    OSC_POSE law (absolute world-frame targets, this gain) without robosuite's per-substep Python."""
     cfg = load_composite_controller_config(controller="BASIC", robot="Panda")
     for part in cfg["body_parts"].values():
         if part.get("type") == "OSC_POSE":
             part["input_type"] = "absolute"
             part["input_ref_frame"] = "world"
-            part["kp"] = 300  # stiffer than the default so presses and grasps reach their targets
+            part["kp"] = OSC_KP  # stiffer than the default so presses and grasps reach their targets
     return cfg
 
 
