@@ -81,18 +81,9 @@ def test_invalid_actions_raise_clear_errors(env: ManipulationEnv) -> None:
         env.step(far)
 
 
-# Seeds the scripted expert misses since the controller change (results/experts.json has the rates): strict, so a
-# fix shows up here as an unexpected pass.
-KNOWN_EXPERT_FAILURES = {
-    ("lift_ball", 11): "the squeeze loses the ball on this seed since control moved to sim/arm_control.py",
-}
-
-
 @pytest.mark.slow
 @pytest.mark.parametrize("seed", [11, 12])
-def test_expert_succeeds(env: ManipulationEnv, seed: int, request: pytest.FixtureRequest) -> None:
-    if (env.task.name, seed) in KNOWN_EXPERT_FAILURES:
-        request.applymarker(pytest.mark.xfail(reason=KNOWN_EXPERT_FAILURES[env.task.name, seed], strict=True))
+def test_expert_succeeds(env: ManipulationEnv, seed: int) -> None:
     env.reset(seed=seed, options={"render": False})
     assert not env.success()
     for keyframe in env.expert_keyframes():

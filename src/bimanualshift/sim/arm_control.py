@@ -1,22 +1,18 @@
-"""Arm control at physics speed: robosuite's operational-space controller, lean, batched over the arms.
+"""Arm control at physics speed: robosuite's operational-space controller, compiled and batched over the arms.
 
 robosuite evaluates its OSC in Python at every 2 ms physics substep (25 per control step), through layers of
-per-robot bookkeeping; that costs several times the physics it drives. Here the same law runs batched over
-both arms every ``OSC_EVERY`` substeps and MuJoCo integrates the held torque in between (``mj_step`` with
-``nstep``, in C).
+per-robot bookkeeping, after a full ``mj_forward``: 6-8x the physics it drives. Here the same law runs at every
+substep too, but as one numba-compiled function over both arms (``osc_torques``), on the kinematic stages it
+reads (positions, Jacobians, mass matrix, bias forces: ``mj_kinematics`` .. ``mj_rne``, a few microseconds;
+no collision detection), and the executor hands it a goal once per control step.
 
 The law is robosuite's OSC_POSE with position and orientation uncoupled (its default): for each arm,
-tau = J_p^T Lambda_p (kp e_p - kd v) + J_r^T Lambda_r (kp e_r - kd w) + nullspace pull to the home posture
-(kp_null = 10, critically damped) + MuJoCo's bias forces (gravity and Coriolis), clipped to the Panda's torque
-limits by MuJoCo (the motors' ctrlrange). kp = 300, critically damped (kd = 2 sqrt(kp)).
-
-Why not once per control step: a torque held for 50 ms at kp = 300 (natural frequency 17 rad/s) is
-unstable, and joint servos tracking a once-per-step target only approximate the OSC's task-space stiffness;
-both changed the contact behaviour the scripted experts rely on (a squeeze, a press, a pinch) and their success
-fell to 20-80 % on several tasks. Every 5 substeps (10 ms, 100 Hz) the held torque is well inside the OSC's
-stability margin (omega * dt = 0.17) and the experts behave as before.
-
-The grippers keep robosuite's position servos and its ramp of 0.2 of the range per control step.
+tau = J_p^T Lambda_p (kp e_p - kd v) + J_r^T Lambda_r (kp e_r - kd w) + the dynamically consistent nullspace
+pull to the home posture (kp_null = 10, critically damped) + MuJoCo's bias forces (gravity and Coriolis), with
+robosuite's orientation error and kp = 300, kd = 2 sqrt(kp); MuJoCo clips the torques to the Panda's limits (the
+motors' ctrlrange). The grippers keep robosuite's position servos and its ramp of 0.2 of the range per control
+step. Cheaper variants (the law every 5 substeps, or on state one substep old, or joint servos tracking a
+once-per-step target) changed the contact behaviour the experts rely on; docs/simulation.md has their figures.
 """
 
 from __future__ import annotations
@@ -28,7 +24,6 @@ import numpy as np
 from numba import njit
 
 SUBSTEPS = 25  # physics steps of 2 ms per 50 ms control step
-OSC_EVERY = 1  # physics steps between two evaluations of the OSC law (every substep, as robosuite)
 OSC_KP = 300.0  # robosuite's OSC gain as this project configures it (sim.scene used kp = 300)
 OSC_KD = 2.0 * np.sqrt(OSC_KP)  # critically damped
 NULLSPACE_KP = 10.0  # robosuite's pull towards the home posture, in the nullspace
@@ -107,13 +102,10 @@ class OscArms:
         self._apply_grippers()
 
     def step(self) -> None:
-        """One control step: the OSC law every ``OSC_EVERY`` substeps, MuJoCo integrating in between."""
-        done = 0
-        while done < SUBSTEPS:
-            n = min(OSC_EVERY, SUBSTEPS - done)
+        """One control step: the OSC law, then one physics substep, ``SUBSTEPS`` times."""
+        for _ in range(SUBSTEPS):
             self._apply_osc()
-            mujoco.mj_step(self.model, self.data, n)
-            done += n
+            mujoco.mj_step(self.model, self.data)
 
     def _apply_grippers(self) -> None:
         for i, arm in enumerate(self.arms):
