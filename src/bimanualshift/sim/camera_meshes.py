@@ -1,10 +1,11 @@
 """Low-polygon copies of the scene's visual meshes, made once and cached, for the cameras.
 
 Software rendering costs what it draws: robosuite's Panda visual meshes and mount pedestals hold ~360,000
-faces, which a 128 x 128 camera cannot resolve. Each visual-only mesh (a mesh no collision geom uses) with more
-than ``MAX_FACES`` faces is decimated (quadric error metric, ``fast_simplification``) to that many faces and
-written once under the cache folder, keyed by the source file's content. Collision geometry, masses and
-inertias are untouched: robosuite computes inertia from the collision group only, so physics does not change.
+faces, which a 128 x 128 camera cannot resolve. Every mesh a visual geom draws with more than ``MAX_FACES``
+faces is decimated (quadric error metric, ``fast_simplification``) to that many faces, written once under the
+cache folder keyed by the source file's content, and given to the visual geoms as a mesh asset of its own.
+Collision geometry, masses and inertias are untouched (robosuite computes inertia from the collision group only),
+so physics does not change.
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ import numpy as np
 
 from bimanualshift.utils.io import atomic_writer
 
-MAX_FACES = 1500  # per mesh: a Panda link at 128 px covers a few hundred pixels
+MAX_FACES = 400  # per mesh: a Panda link part at 128 px covers a few hundred pixels
 CACHE_VERSION = 2  # bump when the decimation changes, so cached meshes are remade
 
 
@@ -28,16 +29,9 @@ def cache_dir() -> Path:
     return Path(root) / "camera_meshes"
 
 
-def _visual_only_meshes(root: ET.Element) -> set[str]:
-    """Names of meshes drawn by visual geoms only (no geom that collides uses them)."""
-    visual, colliding = set(), set()
-    for geom in root.iter("geom"):
-        mesh = geom.get("mesh")
-        if mesh is None:
-            continue
-        no_contact = geom.get("contype") == "0" and geom.get("conaffinity") == "0"
-        (visual if no_contact and geom.get("group", "0") != "0" else colliding).add(mesh)
-    return visual - colliding
+def _is_visual(geom: ET.Element) -> bool:
+    """A geom that never collides and is drawn (robosuite's visual geoms: group 1, no contact bits)."""
+    return geom.get("contype") == "0" and geom.get("conaffinity") == "0" and geom.get("group", "0") != "0"
 
 
 def _write_stl(path: Path, vertices: np.ndarray, faces: np.ndarray) -> None:
@@ -74,15 +68,26 @@ def decimated_copy(source: Path, max_faces: int = MAX_FACES) -> Path | None:
 
 
 def lighten_visual_meshes(root: ET.Element, max_faces: int = MAX_FACES) -> int:
-    """Point every large visual-only mesh of an MJCF tree at its decimated copy; returns how many changed."""
-    visual = _visual_only_meshes(root)
-    changed = 0
-    for mesh in root.iter("mesh"):
-        file = mesh.get("file")
-        if mesh.get("name") not in visual or file is None or not file.lower().endswith((".obj", ".stl")):
+    """Point every visual geom whose mesh is large at a decimated copy of it (its own mesh asset, so collision
+    geoms that share the original keep it); returns how many mesh assets were added."""
+    assets = {m.get("name"): m for m in root.iter("mesh") if m.get("name")}
+    parents = {child: parent for parent in root.iter() for child in parent}
+    copies: dict[str, str | None] = {}  # original mesh name -> its camera copy's name (None: small already)
+    for geom in root.iter("geom"):
+        name = geom.get("mesh")
+        if name is None or name not in assets or not _is_visual(geom):
             continue
-        copy = decimated_copy(Path(file), max_faces)
-        if copy is not None:
-            mesh.set("file", str(copy))
-            changed += 1
-    return changed
+        if name not in copies:
+            source = assets[name]
+            file = source.get("file")
+            copy = decimated_copy(Path(file), max_faces) if file and file.lower().endswith((".obj", ".stl")) else None
+            copies[name] = None
+            if copy is not None:
+                light = ET.Element("mesh", {k: v for k, v in source.attrib.items() if k != "file"})
+                light.set("name", f"{name}_camera")
+                light.set("file", str(copy))
+                parents[source].append(light)
+                copies[name] = light.get("name")
+        if copies[name] is not None:
+            geom.set("mesh", copies[name])
+    return sum(v is not None for v in copies.values())
