@@ -24,6 +24,7 @@ STATIC_CAMERAS: dict[str, tuple[tuple[float, float, float], tuple[float, float, 
 }
 WRIST_CAMERA = "robot{index}_eye_in_hand"
 FOVY_DEGREES = 60.0
+PRIMITIVE_SLICES, PRIMITIVE_STACKS = 14, 6
 
 
 def wrist_camera_names(arm_names: tuple[str, ...]) -> dict[str, str]:
@@ -93,6 +94,10 @@ class CameraRig:
         self.mujoco_names = mujoco_names
         self.height, self.width = height, width
         model.vis.quality.offsamples = 0  # no anti-aliasing: 3x cheaper software rendering
+        # Spheres, capsules and cylinders tessellated for a 128-pixel camera (MuJoCo's default is 28 x 16; a
+        # 30-segment rope then draws ~27,000 triangles).
+        model.vis.quality.numslices = PRIMITIVE_SLICES
+        model.vis.quality.numstacks = PRIMITIVE_STACKS
         model.vis.global_.offwidth = max(model.vis.global_.offwidth, width)
         model.vis.global_.offheight = max(model.vis.global_.offheight, height)
         for name in names:
