@@ -157,3 +157,12 @@ def test_a_results_folder_from_before_the_settings_file_is_checked_against_its_s
         check_results_folder(BenchConfig(out=str(out), demos=30, max_keyframes=0))
     check_results_folder(BenchConfig(out=str(out), demos=30, max_keyframes=16))
     assert json.loads((out / SETTINGS_FILE).read_text())["demos"] == 30
+
+
+def test_an_unknown_executor_is_refused_before_any_training(tmp_path: Path) -> None:
+    from bimanualshift.evaluation.bench import BenchConfig, run_bench
+
+    with pytest.raises(ValueError, match="--executor 'rya' is not one of local, ray"):
+        run_bench(BenchConfig(tasks=["push_two_buttons"], executor="rya", out=str(tmp_path / "out"),
+                              runs=str(tmp_path / "runs"), data=str(tmp_path / "data")))
+    assert not (tmp_path / "runs").exists()

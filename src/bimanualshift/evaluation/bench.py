@@ -24,7 +24,7 @@ from bimanualshift.evaluation.stats import wilson_interval
 from bimanualshift.methods.registry import METHODS, TrainRequest, get_method
 from bimanualshift.utils.io import atomic_write_json, atomic_write_text
 from bimanualshift.utils.jsonl import append_record, read_records
-from bimanualshift.utils.workers import run_jobs
+from bimanualshift.utils.workers import EXECUTORS, run_jobs
 
 KEYFRAME_BUDGET = 2  # an episode stops at this multiple of the expert's keyframe count on the same seed
 DEFAULT_METHODS = ["bimanualshift", "no_projection", "no_residual", "no_retrieval", "unstructured",
@@ -370,6 +370,8 @@ def run_bench(cfg: BenchConfig, command: str | None = None) -> Path:
     from bimanualshift.evaluation.report import print_success_table, write_result
     from bimanualshift.sim.task import resolve_task_names, task_names
 
+    if cfg.executor not in EXECUTORS:  # before any training, not after it
+        raise ValueError(f"--executor {cfg.executor!r} is not one of {', '.join(EXECUTORS)}")
     started = time.time()
     command = command or " ".join(["bimanualshift bench", *(shlex.quote(a) for a in sys.argv[2:])])
     tasks = resolve_task_names(cfg.tasks)
