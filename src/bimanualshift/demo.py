@@ -16,6 +16,8 @@ import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
+import torch
+
 from bimanualshift.configs import RESIDUAL_STEPS
 from bimanualshift.data.collect import collect
 from bimanualshift.data.seeds import split_seeds
@@ -100,6 +102,7 @@ def run_demo(cfg: DemoConfig) -> dict:
             for method, checkpoint in methods.items() for seed in test_seeds]
     episodes = sorted(run_jobs(run_bench_episode, jobs, cfg.workers, desc="demo test episodes", chunksize=1),
                       key=lambda e: (list(methods).index(e["method"]), e["seed"]))
+    torch.set_num_threads(1)  # as the workers ran it, so the recorded episode is the one in the table
     text_encoder = default_text_encoder()
     env = ManipulationEnv(cfg.task)
     results = Path(cfg.results)

@@ -24,7 +24,7 @@ import numpy as np
 from numba import njit
 
 SUBSTEPS = 25  # physics steps of 2 ms per 50 ms control step
-OSC_KP = 300.0  # robosuite's OSC gain as this project configures it (sim.scene used kp = 300)
+OSC_KP = 300.0  # stiffer than robosuite's default 150, so presses and grasps reach their targets
 OSC_KD = 2.0 * np.sqrt(OSC_KP)  # critically damped
 NULLSPACE_KP = 10.0  # robosuite's pull towards the home posture, in the nullspace
 NULLSPACE_KD = 2.0 * np.sqrt(NULLSPACE_KP)

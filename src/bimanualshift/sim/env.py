@@ -116,7 +116,8 @@ class ManipulationEnv(gym.Env):
 
     def _reset_physics(self) -> None:
         """Everything back to the compiled scene: model fields, MuJoCo's state (warm start included), the arms at
-        their home joints with servos holding them, grippers open. Nothing of an earlier episode survives."""
+        their home joints with the controller holding that pose, grippers open. Nothing of an earlier episode
+        survives."""
         for key, value in self._model_fields.items():
             getattr(self.model, key)[:] = value
         mujoco.mj_resetData(self.model, self.data)
@@ -151,11 +152,7 @@ class ManipulationEnv(gym.Env):
     # ---- state -----------------------------------------------------------------------------------------
     def get_state(self) -> dict[str, Any]:
         return {
-            "qpos": self.data.qpos.copy(),
-            "qvel": self.data.qvel.copy(),
-            "act": self.data.act.copy(),
-            "ctrl": self.data.ctrl.copy(),
-            "qacc_warmstart": self.data.qacc_warmstart.copy(),
+            **{key: getattr(self.data, key).copy() for key in DATA_STATE_FIELDS},
             "gripper_action": self.arms.gripper_action.copy(),
             "body_pos": self.model.body_pos.copy(),
             "body_quat": self.model.body_quat.copy(),
@@ -166,7 +163,7 @@ class ManipulationEnv(gym.Env):
         }
 
     def set_state(self, state: dict[str, Any]) -> None:
-        for key in ("qpos", "qvel", "act", "ctrl", "qacc_warmstart", "body_pos", "body_quat", "geom_rgba"):
+        for key in (*DATA_STATE_FIELDS, "body_pos", "body_quat", "geom_rgba"):
             target = getattr(self.data if key in DATA_STATE_FIELDS else self.model, key)
             if np.shape(state[key]) != target.shape:
                 raise ValueError(f"state[{key!r}] has shape {np.shape(state[key])}, this scene needs {target.shape}")

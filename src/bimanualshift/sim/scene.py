@@ -53,7 +53,7 @@ def controller_config() -> dict:
         if part.get("type") == "OSC_POSE":
             part["input_type"] = "absolute"
             part["input_ref_frame"] = "world"
-            part["kp"] = OSC_KP  # stiffer than the default so presses and grasps reach their targets
+            part["kp"] = OSC_KP
     return cfg
 
 
