@@ -1,4 +1,4 @@
-"""EGL against OSMesa: one six-camera RGB-D + segmentation observation per backend (writes results/render_backends.json).
+"""EGL against OSMesa: one six-camera RGB-D + segmentation observation each (writes results/render_backends.json).
 
     .venv/bin/python benchmarks/render_backends.py
 

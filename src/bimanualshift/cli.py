@@ -382,6 +382,13 @@ def cmd_report(args: argparse.Namespace) -> None:
         print(f"{readme}: regenerated {', '.join(names) if names else 'no results blocks'}")
 
 
+def _add_executor(p: argparse.ArgumentParser) -> None:
+    from bimanualshift.utils.workers import EXECUTORS
+
+    p.add_argument("--executor", default="local", choices=EXECUTORS,
+                   help="local worker processes (default), or Ray tasks on the cluster RAY_ADDRESS names")
+
+
 def build_parser() -> argparse.ArgumentParser:
     from bimanualshift.demo import DemoConfig
     from bimanualshift.evaluation.bench import BenchConfig
@@ -405,8 +412,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--start", type=int, default=0, help="first seed offset within the split (default: 0)")
     p.add_argument("--workers", type=int, default=1, help="parallel worker processes (default: 1)")
     p.add_argument("--image-size", type=int, default=128, help="camera resolution (default: 128)")
-    p.add_argument("--executor", default="local", choices=["local", "ray"],
-                   help="local worker processes (default), or Ray tasks on the cluster RAY_ADDRESS names")
+    _add_executor(p)
     p.set_defaults(func=cmd_collect)
 
     p = sub.add_parser("experts", help="measure the scripted experts' success rate on test seeds (no rendering)")
@@ -414,8 +420,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--episodes", type=int, default=100, help="seeds per task (default: 100)")
     p.add_argument("--workers", type=int, default=1, help="parallel worker processes (default: 1)")
     p.add_argument("--out", help="write a result JSON here (e.g. results/experts.json)")
-    p.add_argument("--executor", default="local", choices=["local", "ray"],
-                   help="local worker processes (default), or Ray tasks on the cluster RAY_ADDRESS names")
+    _add_executor(p)
     p.set_defaults(func=cmd_experts)
 
     p = sub.add_parser("snapshot", help="render a picture of each task's first scene (for the docs)")
@@ -468,8 +473,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--log", help="per-episode log a stopped report resumes from (default: OUT with .episodes.jsonl)")
     p.add_argument("--minutes", type=float, default=0.0,
                    help="stop after this long and write an interim result (resume later with the same command)")
-    p.add_argument("--executor", default="local", choices=["local", "ray"],
-                   help="local worker processes (default), or Ray tasks on the cluster RAY_ADDRESS names")
+    _add_executor(p)
     p.set_defaults(func=cmd_prior_report)
 
     _add_config_command(sub, "pretrain", "pretrain a single-arm prior on single-arm demos only", PretrainConfig,

@@ -100,9 +100,13 @@ class CameraRig:
         model.vis.quality.numstacks = PRIMITIVE_STACKS
         model.vis.global_.offwidth = max(model.vis.global_.offwidth, width)
         model.vis.global_.offheight = max(model.vis.global_.offheight, height)
-        for name in names:
-            if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, self.mujoco_names.get(name, name)) < 0:
-                raise KeyError(f"camera {name!r} is not in the scene")
+        self._camera_ids = {
+            name: mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, self.mujoco_names.get(name, name))
+            for name in names
+        }
+        missing = [name for name, cam in self._camera_ids.items() if cam < 0]
+        if missing:
+            raise KeyError(f"camera(s) {missing} are not in the scene")
         self._gl: mujoco.GLContext | None = mujoco.GLContext(width, height)
         self._gl.make_current()
         self._context = mujoco.MjrContext(model, mujoco.mjtFontScale.mjFONTSCALE_150)
@@ -116,10 +120,6 @@ class CameraRig:
         self._rect = mujoco.MjrRect(0, 0, width, height)
         self._camera = mujoco.MjvCamera()
         self._camera.type = mujoco.mjtCamera.mjCAMERA_FIXED
-        self._camera_ids = {
-            name: mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, self.mujoco_names.get(name, name))
-            for name in names
-        }
         self.option = mujoco.MjvOption()
         self.option.geomgroup[:] = 0
         self.option.geomgroup[1] = 1  # visual geoms only (robosuite's collision geoms are group 0)
@@ -156,7 +156,7 @@ class CameraRig:
         rgb = np.empty((self.height, self.width, 3), np.uint8)
         mujoco.mjr_render(self._rect, self._scene, self._context)
         mujoco.mjr_readPixels(rgb, None, self._rect, self._context)
-        return rgb[::-1]  # OpenGL's rows run bottom-up
+        return np.ascontiguousarray(rgb[::-1])  # OpenGL's rows run bottom-up; consumers want positive strides
 
     def _segmentation_pass(self) -> tuple[np.ndarray, np.ndarray]:
         """(metric depth, geom id per pixel or -1) from one flat-colour pass."""

@@ -1,7 +1,7 @@
 """The robosuite scene: one or two Franka Pandas side by side facing a table, plus a task's objects.
 
 robosuite supplies the robots, grippers and table arena; the task supplies its objects as MJCF. robosuite builds
-the model only: its operational-space law runs in ``sim.arm_control``, once per 5 physics substeps, and the
+the model only: its operational-space law runs in ``sim.arm_control``, compiled, at every physics substep, and the
 cameras draw low-polygon copies of its visual meshes (``sim.camera_meshes``).
 """
 
