@@ -1,6 +1,6 @@
 # Two commands do everything on a fresh Linux machine (no GPU needed):
 #   make demo   create .venv, install, run the end-to-end demo (collect -> train residual -> evaluate)
-#   make test   create .venv, install, lint and run the test suite
+#   make test   create .venv, install, lint (ruff, and import-linter's layers contract) and run the test suite
 PYTHON ?= python3
 VENV ?= .venv
 BIN := $(VENV)/bin
@@ -26,6 +26,7 @@ test: install lint
 
 lint: install
 	$(BIN)/ruff check src tests
+	$(BIN)/lint-imports --no-cache
 
 clean:
 	rm -rf $(VENV) runs

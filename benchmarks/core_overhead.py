@@ -30,7 +30,7 @@ from bimanualshift.memory.bank import MemoryBank, MemoryEntry, memory_key
 from bimanualshift.memory.reference import REFERENCE_DIM
 from bimanualshift.methods.bimanualshift import BimanualShift
 from bimanualshift.methods.frozen_prior import FrozenPriorPerArm
-from bimanualshift.methods.stages import FrozenPriorStage
+from bimanualshift.methods.prior_step import FrozenPriorStage
 from bimanualshift.priors import PRIORS, UnimanualPrior
 from bimanualshift.residual.manager import ResidualConfig, ResidualPolicy
 from bimanualshift.residual.skills import SkillBasis
@@ -135,7 +135,7 @@ def main() -> None:
                          **({"target": "<= 1"} if entries == 100_000 else {})})
     seeds = {"test": [seed]}
     if args.train_data:
-        from bimanualshift.training.residual import TrainConfig, train_residual
+        from bimanualshift.training.residual_trainer import TrainConfig, train_residual
 
         with tempfile.TemporaryDirectory() as out:
             t0 = time.time()

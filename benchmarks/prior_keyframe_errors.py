@@ -26,7 +26,7 @@ from bimanualshift.perception.observation import ArmObservationBuilder
 from bimanualshift.priors import UnimanualPrior
 from bimanualshift.sim.task import resolve_task_names
 from bimanualshift.training.pretrain import PriorBatches
-from bimanualshift.training.samples import build_arm_samples
+from bimanualshift.perception.arm_samples import build_arm_samples
 
 
 def keyframe_errors(model: UnimanualPrior, batches: PriorBatches) -> tuple[np.ndarray, np.ndarray]:

@@ -24,14 +24,15 @@ from bimanualshift.data.seeds import split_seeds
 from bimanualshift.encoders.text import default_text_encoder
 from bimanualshift.evaluation.bench import BenchJob, run_bench_episode
 from bimanualshift.evaluation.media import write_strip, write_video
-from bimanualshift.evaluation.report import print_success_table, success_rows, write_result
-from bimanualshift.evaluation.rollout import EpisodeRecord, rollout
+from bimanualshift.evaluation.report import success_rows, write_result
+from bimanualshift.evaluation.tables import print_success_table
 from bimanualshift.methods.bimanualshift import load_bimanualshift
 from bimanualshift.methods.frozen_prior import FrozenPriorPerArm
-from bimanualshift.methods.registry import TrainRequest
+from bimanualshift.registry import TrainRequest
+from bimanualshift.rollout.loop import EpisodeRecord, rollout
 from bimanualshift.sim.env import ManipulationEnv
 from bimanualshift.training.pretrain import PretrainConfig, pretrain
-from bimanualshift.training.residual import TrainConfig, train_residual
+from bimanualshift.training.residual_trainer import TrainConfig, train_residual
 from bimanualshift.utils.workers import run_jobs
 
 SHIPPED_PRIOR = Path(__file__).resolve().parents[2] / "checkpoints" / "peract_suite"

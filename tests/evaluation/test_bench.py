@@ -9,9 +9,10 @@ from pathlib import Path
 
 import pytest
 
-from bimanualshift.evaluation.bench import BenchConfig, bench_rows, bench_table, read_episodes, run_bench
+from bimanualshift.evaluation.bench import BenchConfig, bench_rows, read_episodes, run_bench
 from bimanualshift.evaluation.stats import wilson_interval
-from bimanualshift.methods.registry import METHODS, get_method
+from bimanualshift.evaluation.tables import bench_table
+from bimanualshift.registry import METHODS, get_method
 
 
 def test_rows_average_tasks_and_pool_intervals() -> None:
@@ -25,7 +26,7 @@ def test_rows_average_tasks_and_pool_intervals() -> None:
 
 
 def test_multi_stage_tasks_report_stage_wise_success() -> None:
-    from bimanualshift.evaluation.bench import stage_table
+    from bimanualshift.evaluation.tables import stage_table
 
     episodes = [{"task": "take_tray_out_of_oven", "method": "m", "seed": s, "success": done == 2, "stages_done": done}
                 for s, done in enumerate([0, 1, 1, 2])]
@@ -38,7 +39,7 @@ def test_multi_stage_tasks_report_stage_wise_success() -> None:
 
 
 def test_plots_are_redrawn_from_a_summary_and_stage_lines_only_for_staged_tasks(tmp_path: Path) -> None:
-    from bimanualshift.evaluation.bench import redraw_plots
+    from bimanualshift.evaluation.plots import redraw_plots
 
     staged = [{"task": "take_tray_out_of_oven", "method": "m", "seed": s, "success": done == 2, "stages_done": done}
               for s, done in enumerate([0, 1, 2])]

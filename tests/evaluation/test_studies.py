@@ -6,9 +6,9 @@ from dataclasses import replace
 
 import pytest
 
-from bimanualshift.evaluation.bench import bench_table
 from bimanualshift.evaluation.studies import STUDIES, combined_rows, study_plan, study_runs
-from bimanualshift.methods.registry import METHODS
+from bimanualshift.evaluation.tables import bench_table
+from bimanualshift.registry import METHODS
 from bimanualshift.sim.perturbations import PRESETS
 from bimanualshift.sim.task import resolve_task_names
 

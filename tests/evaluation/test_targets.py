@@ -1,6 +1,7 @@
 from __future__ import annotations
 
-from bimanualshift.evaluation.targets import few_shot_targets, table1_targets, targets_table
+from bimanualshift.evaluation.tables import targets_table
+from bimanualshift.evaluation.targets import few_shot_targets, table1_targets
 
 
 def avg(method: str, success: float, run: str | None = None) -> dict:

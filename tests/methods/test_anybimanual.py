@@ -7,10 +7,10 @@ from pathlib import Path
 import torch
 from safetensors.torch import load_file
 
-from bimanualshift.evaluation.rollout import rollout
 from bimanualshift.methods.baselines.anybimanual import AnyBimanualNetwork, AnyBimanualPolicy, build_anybimanual
-from bimanualshift.methods.registry import TrainRequest, get_method
 from bimanualshift.priors import UnimanualPrior
+from bimanualshift.registry import TrainRequest, get_method
+from bimanualshift.rollout.loop import rollout
 from bimanualshift.sim.env import ManipulationEnv
 from bimanualshift.training.checkpoint import latest_checkpoint
 

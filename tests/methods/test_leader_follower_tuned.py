@@ -10,14 +10,14 @@ import pytest
 import torch
 
 from bimanualshift.configs import prior_model_config
-from bimanualshift.evaluation.rollout import rollout
 from bimanualshift.geometry.frames import ArmFrame
 from bimanualshift.methods.baselines.leader_follower_tuned import LeaderFollowerPolicy, leader_extras
-from bimanualshift.methods.registry import TrainRequest, get_method
+from bimanualshift.methods.baselines.network_spec import widen_from_prior
+from bimanualshift.perception.arm_samples import ArmSamples
 from bimanualshift.priors import PRIORS
+from bimanualshift.registry import TrainRequest, get_method
+from bimanualshift.rollout.loop import rollout
 from bimanualshift.sim.env import ManipulationEnv
-from bimanualshift.training.bimanual_voxel import widen_from_prior
-from bimanualshift.training.samples import ArmSamples
 
 
 def test_follower_sees_the_leaders_action_in_its_own_frame() -> None:

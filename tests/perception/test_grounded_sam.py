@@ -92,11 +92,11 @@ def test_missing_weights_give_a_clear_error(tmp_path: Path) -> None:
 
 def test_training_config_points_the_projection_at_local_weights(tiny_models: tuple[Path, Path]) -> None:
     from bimanualshift.encoders.text import default_text_encoder
-    from bimanualshift.methods.stages import FrozenPriorStage
+    from bimanualshift.methods.prior_step import FrozenPriorStage
     from bimanualshift.perception.segmenters.grounded_sam import GroundedSamSegmenter
     from bimanualshift.priors.peract.configuration_peract import PerActConfig
     from bimanualshift.priors.peract.modeling_peract import PerActPrior
-    from bimanualshift.training.residual import segmenter_options
+    from bimanualshift.training.residual_trainer import segmenter_options
 
     detector, sam = tiny_models
     options = segmenter_options(str(detector), str(sam))

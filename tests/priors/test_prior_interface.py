@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from bimanualshift.configs import prior_model_config
+from bimanualshift.perception.arm_samples import ArmSamples, action_chunks
 from bimanualshift.priors.base import resolve_prior_path, shipped_priors
-from bimanualshift.training.samples import ArmSamples, action_chunks
 
 
 def test_shipped_priors_resolve_by_name_and_unknown_names_fail_clearly(tmp_path: Path) -> None:

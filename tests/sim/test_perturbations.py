@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from bimanualshift.sim.colours import TRAIN_COLOURS, UNSEEN_COLOURS
+from bimanualshift.core.colours import TRAIN_COLOURS, UNSEEN_COLOURS
 from bimanualshift.sim.env import ManipulationEnv
 from bimanualshift.sim.perturbations import PRESETS, Perturbations, preset
 from bimanualshift.sim.task import task_names

@@ -7,7 +7,7 @@ from collections.abc import Iterator
 import numpy as np
 import pytest
 
-from bimanualshift.perception.goal_nouns import extract_goal_nouns
+from bimanualshift.core.goal_nouns import extract_goal_nouns
 from bimanualshift.sim.env import InvalidActionError, ManipulationEnv
 from bimanualshift.sim.task import TASKS, SimHandle, Task, register_task, task_names
 

@@ -19,7 +19,7 @@ from bimanualshift.methods.bimanualshift import MEMORY_FILE, load_bimanualshift
 from bimanualshift.sim.env import ManipulationEnv
 from bimanualshift.training.checkpoint import latest_checkpoint
 from bimanualshift.training.refine import RefineConfig, expert_actions, refine, run_policy, strays
-from bimanualshift.training.residual import TrainConfig, train_residual
+from bimanualshift.training.residual_trainer import TrainConfig, train_residual
 
 
 def _row(pos: list[float], yaw_deg: float = 0.0, gripper: float = 1.0) -> np.ndarray:

@@ -11,13 +11,13 @@ import torch
 from safetensors.torch import load_file
 
 from bimanualshift.encoders.text import default_text_encoder
-from bimanualshift.evaluation.rollout import rollout
 from bimanualshift.methods.bimanualshift import load_bimanualshift
 from bimanualshift.priors import UnimanualPrior
+from bimanualshift.rollout.loop import rollout
 from bimanualshift.sim.env import ManipulationEnv
 from bimanualshift.training.checkpoint import latest_checkpoint
 from bimanualshift.training.pretrain import PretrainConfig, pretrain
-from bimanualshift.training.residual import TrainConfig, train_residual
+from bimanualshift.training.residual_trainer import TrainConfig, train_residual
 
 
 def pretrain_cfg(root: Path, out: Path, steps: int, prior: str = "peract") -> PretrainConfig:
@@ -113,7 +113,8 @@ def test_residual_training_resumes_keeps_prior_frozen_and_evaluates(demo_root: P
 
 def test_prior_report_measures_a_trained_prior(tiny_prior: Path) -> None:
     from bimanualshift.data.seeds import split_seeds
-    from bimanualshift.evaluation.priors import KEYFRAME_BUDGET, evaluate_priors, prior_rows
+    from bimanualshift.evaluation.priors import evaluate_priors, prior_rows
+    from bimanualshift.rollout.loop import KEYFRAME_BUDGET
 
     seeds = split_seeds("test", 2)
     episodes = evaluate_priors([str(tiny_prior)], ["push_button"], seeds)

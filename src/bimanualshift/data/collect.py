@@ -14,9 +14,8 @@ import numpy as np
 
 from bimanualshift.data.episode import Episode, episode_path, write_episode
 from bimanualshift.sim.env import ManipulationEnv
+from bimanualshift.sim.env_cache import cached_env
 from bimanualshift.utils.workers import run_jobs
-
-_WORKER_ENVS: dict[str, ManipulationEnv] = {}
 
 
 def stack_observations(observations: list[dict], camera_names: tuple[str, ...]) -> dict[str, np.ndarray]:
@@ -75,9 +74,7 @@ class CollectJob:
 
 
 def _collect_one(job: CollectJob) -> tuple[str, int, bool]:
-    env = _WORKER_ENVS.get(job.task)
-    if env is None:
-        env = _WORKER_ENVS[job.task] = ManipulationEnv(job.task, image_size=job.image_size)
+    env = cached_env(job.task, image_size=job.image_size)
     episode = record_expert_episode(env, job.seed)
     if episode.success:  # only verified successes become demonstrations
         write_episode(episode_path(job.out, job.task, job.seed), episode)

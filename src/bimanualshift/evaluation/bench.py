@@ -20,13 +20,16 @@ from typing import Any
 import numpy as np
 
 from bimanualshift.data.seeds import split_seeds
-from bimanualshift.evaluation.stats import wilson_interval
-from bimanualshift.methods.registry import METHODS, TrainRequest, get_method
+from bimanualshift.evaluation.plots import draw_plots
+from bimanualshift.evaluation.stats import SuccessRate, SuccessRow
+from bimanualshift.evaluation.tables import bench_table, stage_table
+from bimanualshift.registry import METHODS, TrainRequest, get_method
+from bimanualshift.rollout.loop import KEYFRAME_BUDGET
 from bimanualshift.utils.io import atomic_write_json, atomic_write_text
 from bimanualshift.utils.jsonl import append_record, read_records
+from bimanualshift.utils.process_cache import cached
 from bimanualshift.utils.workers import EXECUTORS, run_jobs
 
-KEYFRAME_BUDGET = 2  # an episode stops at this multiple of the expert's keyframe count on the same seed
 DEFAULT_METHODS = ["bimanualshift", "no_projection", "no_residual", "no_retrieval", "unstructured",
                    "frozen_prior_per_arm", "scratch_voxel"]
 
@@ -69,7 +72,6 @@ class BenchJob:
 
 DEFAULT_TRAIN_STEPS = 1500  # for methods that name no steps of their own
 
-_CACHE: dict[Any, Any] = {}
 
 
 def _request(cfg: BenchConfig, task: str, method: str, training: bool = True) -> TrainRequest:
@@ -134,24 +136,15 @@ def run_bench_episode(job: BenchJob) -> dict[str, Any]:
     import torch
 
     from bimanualshift.evaluation.media import write_video
-    from bimanualshift.evaluation.rollout import rollout
-    from bimanualshift.sim.env import ManipulationEnv
+    from bimanualshift.rollout.loop import episode_budget, rollout
+    from bimanualshift.sim.env_cache import cached_env
 
     torch.set_num_threads(1)  # one process per core
-    from bimanualshift.sim.perturbations import preset
-
-    env_key = ("env", job.task, job.perturbation)
-    if env_key not in _CACHE:
-        _CACHE[env_key] = ManipulationEnv(job.task, perturbations=preset(job.perturbation))
-    env = _CACHE[env_key]
-    key = ("policy", job.method, job.task, job.checkpoint)
-    if key not in _CACHE:
-        request = TrainRequest(**job.request)
-        _CACHE[key] = get_method(job.method).load(Path(job.checkpoint) if job.checkpoint else None, request)
-    env.reset(seed=job.seed, options={"render": False})
-    budget = KEYFRAME_BUDGET * len(env.expert_keyframes())
-    budget = min(budget, job.max_keyframes) if job.max_keyframes else budget
-    record = rollout(env, _CACHE[key], job.seed, budget, record_camera="front" if job.video else None)
+    env = cached_env(job.task, job.perturbation)
+    policy = cached(("policy", job.method, job.task, job.checkpoint), lambda: get_method(job.method).load(
+        Path(job.checkpoint) if job.checkpoint else None, TrainRequest(**job.request)))
+    budget = episode_budget(env, job.seed, job.max_keyframes)
+    record = rollout(env, policy, job.seed, budget, record_camera="front" if job.video else None)
     if job.video:
         write_video(job.video, record.frames)
     return {"task": job.task, "method": job.method, "perturbation": job.perturbation, "seed": job.seed,
@@ -180,12 +173,10 @@ def bench_rows(episodes: list[dict[str, Any]], methods: list[str], tasks: list[s
                         and e.get("perturbation", "none") == perturbation]
                 if not mine:
                     continue
-                k = sum(e["success"] for e in mine)
-                lo, hi = wilson_interval(k, len(mine))
-                rates.append((k, len(mine)))
-                mine_rows.append({"task": task, "method": method, "demos": demos,
-                                  "success": round(k / len(mine), 4), "episodes": len(mine),
-                                  "ci95": [round(lo, 4), round(hi, 4)], **stage_success(task, mine)})
+                rate = SuccessRate.of(e["success"] for e in mine)
+                rates.append((rate.successes, rate.episodes))
+                mine_rows.append(SuccessRow(task, method, rate, context={"demos": demos},
+                                            details=stage_success(task, mine)).to_dict())
             if len(rates) > 1:
                 mine_rows.append(average_row(method, demos, rates))
             if list(perturbations) != ["none"]:
@@ -204,11 +195,9 @@ def bench_rows(episodes: list[dict[str, Any]], methods: list[str], tasks: list[s
 def average_row(method: str, demos: int | str, rates: list[tuple[int, int]]) -> dict[str, Any]:
     """A method's average over tasks from (successes, episodes) per task: the mean of the per-task rates (each
     task weighs the same, as in the paper's Table I), with a Wilson interval on the pooled episodes."""
-    k, n = sum(r[0] for r in rates), sum(r[1] for r in rates)
-    lo, hi = wilson_interval(k, n)
-    return {"task": "average", "method": method, "demos": demos,
-            "success": round(float(np.mean([a / b for a, b in rates])), 4), "episodes": n,
-            "ci95": [round(lo, 4), round(hi, 4)]}
+    pooled = SuccessRate(sum(r[0] for r in rates), sum(r[1] for r in rates))
+    row = SuccessRow("average", method, pooled, context={"demos": demos}).to_dict()
+    return {**row, "success": round(float(np.mean([a / b for a, b in rates])), 4)}
 
 
 def stage_success(task: str, episodes: list[dict[str, Any]]) -> dict[str, Any]:
@@ -222,152 +211,29 @@ def stage_success(task: str, episodes: list[dict[str, Any]]) -> dict[str, Any]:
         return {}
     out = []
     for i, name in enumerate(names):
-        k = sum(int(e.get("stages_done", 0)) > i for e in episodes)
-        lo, hi = wilson_interval(k, len(episodes))
-        out.append({"stage": name, "success": round(k / len(episodes), 4), "ci95": [round(lo, 4), round(hi, 4)]})
+        rate = SuccessRate.of(int(e.get("stages_done", 0)) > i for e in episodes).fields()
+        out.append({"stage": name, "success": rate["success"], "ci95": rate["ci95"]})
     return {"stages": out}
 
 
-def stage_table(rows: list[dict[str, Any]]) -> str:
-    """Stage-wise success (Table III / Fig. 11b layout): one row per method and task, one column per stage."""
-    staged = [r for r in rows if r.get("stages")]
-    if not staged:
-        return ""
-    lines = []
-    for task in dict.fromkeys(r["task"] for r in staged):
-        mine = [r for r in staged if r["task"] == task]
-        names = [s["stage"] for s in mine[0]["stages"]]
-        lines += [f"**{task.replace('_', ' ')}: stage-wise success (%)**", "",
-                  "| method | " + " | ".join(names) + " |", "|---|" + "---|" * len(names)]
-        for r in mine:
-            extra = f" ({100 * r['degradation']:.0f} % degradation)" if "degradation" in r else ""
-            lines.append(f"| {row_label(r)}{extra} | " + " | ".join(f"{100 * s['success']:.0f}" for s in r["stages"])
-                         + " |")
-        lines.append("")
-    return "\n".join(lines)
 
 
-def row_label(row: dict[str, Any]) -> str:
-    """The method, the study run it belongs to and the perturbation it was tested under, where there are some."""
-    return (row["method"] + (f" [{row['run']}]" if "run" in row else "")
-            + (f" ({row['perturbation']})" if "perturbation" in row else ""))
 
 
-def bench_table(rows: list[dict[str, Any]]) -> str:
-    """Table I's layout: one row per method (and perturbation), one column per task, then the average."""
-    tasks = list(dict.fromkeys(r["task"] for r in rows))
-    methods = list(dict.fromkeys(row_label(r) for r in rows))
-    cell = {(row_label(r), r["task"]): r for r in rows}
-    lines = ["| method | " + " | ".join(t.replace("_", " ") for t in tasks) + " |", "|---|" + "---|" * len(tasks)]
-    for method in methods:
-        cells = []
-        for task in tasks:
-            r = cell.get((method, task))
-            cells.append("–" if r is None else
-                         f"{100 * r['success']:.0f} ({100 * r['ci95'][0]:.0f}–{100 * r['ci95'][1]:.0f})")
-        lines.append(f"| {method} | " + " | ".join(cells) + " |")
-    return "\n".join(lines) + "\n"
 
 
-def bar_plot(path: Path, rows: list[dict[str, Any]], title: str) -> Path:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from bimanualshift.utils.io import atomic_writer
-
-    tasks = list(dict.fromkeys(r["task"] for r in rows))
-    methods = list(dict.fromkeys(row_label(r) for r in rows))
-    cell = {(row_label(r), r["task"]): r for r in rows}
-    width = 0.8 / len(methods)
-    fig, ax = plt.subplots(figsize=(max(6.0, 1.6 * len(tasks)), 3.8))
-    for i, method in enumerate(methods):
-        xs, ys, err = [], [], [[], []]
-        for j, task in enumerate(tasks):
-            r = cell.get((method, task))
-            if r is None:
-                continue
-            xs.append(j + (i - (len(methods) - 1) / 2) * width)
-            ys.append(100 * r["success"])
-            err[0].append(100 * (r["success"] - r["ci95"][0]))
-            err[1].append(100 * (r["ci95"][1] - r["success"]))
-        ax.bar(xs, ys, width, yerr=err, capsize=2, label=method)
-    ax.set_xticks(range(len(tasks)), [t.replace("_", "\n") for t in tasks], fontsize=8)
-    ax.set_ylabel("success (%)")
-    ax.set_ylim(0, 100)
-    ax.set_title(title, fontsize=10)
-    ax.legend(fontsize=7, ncols=min(len(methods), 3))
-    fig.tight_layout()
-    with atomic_writer(path) as tmp:
-        fig.savefig(tmp, format="png", dpi=120)
-    plt.close(fig)
-    return path
 
 
-def stage_plot(path: Path, rows: list[dict[str, Any]], title: str) -> Path | None:
-    """Stage-wise success (Fig. 11b's layout): per multi-stage task, one line per method over its stages with
-    Wilson 95 % bands; None (nothing written) when no row has stages."""
-    staged = [r for r in rows if r.get("stages")]
-    if not staged:
-        return None
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from bimanualshift.utils.io import atomic_writer
-
-    tasks = list(dict.fromkeys(r["task"] for r in staged))
-    fig, axes = plt.subplots(1, len(tasks), figsize=(5.5 * len(tasks), 3.8), squeeze=False)
-    for ax, task in zip(axes[0], tasks):
-        mine = [r for r in staged if r["task"] == task]
-        names = [s["stage"] for s in mine[0]["stages"]]
-        xs = list(range(len(names)))
-        for r in mine:
-            ys = [100 * s["success"] for s in r["stages"]]
-            low = [100 * s["ci95"][0] for s in r["stages"]]
-            high = [100 * s["ci95"][1] for s in r["stages"]]
-            (line,) = ax.plot(xs, ys, marker="o", label=row_label(r))
-            ax.fill_between(xs, low, high, alpha=0.12, color=line.get_color())
-        ax.set_xticks(xs, [n.replace(" ", "\n") for n in names], fontsize=8)
-        ax.set_ylim(0, 100)
-        ax.set_ylabel("episodes reaching the stage (%)")
-        ax.set_title(f"{title}: {task.replace('_', ' ')}", fontsize=10)
-        ax.legend(fontsize=7)
-    fig.tight_layout()
-    with atomic_writer(path) as tmp:
-        fig.savefig(tmp, format="png", dpi=120)
-    plt.close(fig)
-    return path
 
 
-def draw_plots(out: Path, rows: list[dict[str, Any]], title: str) -> None:
-    """A result folder's plots: success bars and, for multi-stage tasks, the stage-wise lines."""
-    bar_plot(out / "success.png", rows, title)
-    stage_plot(out / "stages.png", rows, title)
 
 
-def redraw_plots(folder: str | Path) -> list[Path]:
-    """Redraw the plots of a bench or study result folder from its ``summary.json``."""
-    folder = Path(folder)
-    summary = folder / "summary.json"
-    if not summary.is_file():
-        raise FileNotFoundError(f"no summary.json in {folder}: give a folder written by `bimanualshift bench` or "
-                                "`bimanualshift study`")
-    result = json.loads(summary.read_text())
-    if not result.get("rows") or "task" not in result["rows"][0]:
-        raise ValueError(f"{summary} holds no benchmark rows (task, method, success); it is not a bench result")
-    first = result["rows"][0]
-    title = (f"study {result['study']}" if result.get("study") else f"{first.get('demos', '?')} demos, "
-             f"{first.get('episodes', '?')} test episodes per task (95 % Wilson intervals)")
-    draw_plots(folder, result["rows"], title)
-    return [p for p in (folder / "success.png", folder / "stages.png") if p.is_file()]
 
 
 def run_bench(cfg: BenchConfig, command: str | None = None) -> Path:
     from bimanualshift.data.collect import collect
-    from bimanualshift.evaluation.report import print_success_table, write_result
+    from bimanualshift.evaluation.report import write_result
+    from bimanualshift.evaluation.tables import print_success_table
     from bimanualshift.sim.task import resolve_task_names, task_names
 
     if cfg.executor not in EXECUTORS:  # before any training, not after it

@@ -12,14 +12,10 @@ from typing import Any
 import numpy as np
 import torch
 
-from bimanualshift.evaluation.stats import wilson_interval
+from bimanualshift.evaluation.stats import SuccessRate
 from bimanualshift.utils.jsonl import append_record, read_records
+from bimanualshift.utils.process_cache import cached
 from bimanualshift.utils.workers import run_jobs
-
-# Rollouts of a prior stop at this multiple of the expert's keyframe count on the same seed.
-KEYFRAME_BUDGET = 2
-
-_CACHE: dict[Any, Any] = {}
 
 
 @dataclass(frozen=True)
@@ -35,30 +31,18 @@ def _policy(prior: str) -> Any:
     from bimanualshift.encoders.text import default_text_encoder
     from bimanualshift.methods.frozen_prior import FrozenPriorPerArm
 
-    key = ("policy", prior)
-    if key not in _CACHE:
-        _CACHE[key] = FrozenPriorPerArm.from_pretrained(prior, default_text_encoder(), name=prior)
-    return _CACHE[key]
-
-
-def _env(task: str) -> Any:
-    from bimanualshift.sim.env import ManipulationEnv
-
-    key = ("env", task)
-    if key not in _CACHE:
-        _CACHE[key] = ManipulationEnv(task)
-    return _CACHE[key]
+    return cached(("policy", prior), lambda: FrozenPriorPerArm.from_pretrained(prior, default_text_encoder(),
+                                                                                name=prior))
 
 
 def run_prior_episode(job: tuple[str, str, int]) -> PriorEpisode:
-    from bimanualshift.evaluation.rollout import rollout
+    from bimanualshift.rollout.loop import episode_budget, rollout
+    from bimanualshift.sim.env_cache import cached_env
 
     torch.set_num_threads(1)  # one process per core
     prior, task, seed = job
-    env = _env(task)
-    env.reset(seed=seed, options={"render": False})
-    budget = KEYFRAME_BUDGET * len(env.expert_keyframes())
-    record = rollout(env, _policy(prior), seed, budget)
+    env = cached_env(task)
+    record = rollout(env, _policy(prior), seed, episode_budget(env, seed))
     return PriorEpisode(prior, task, seed, record.success, record.keyframes)
 
 
@@ -90,11 +74,12 @@ def evaluate_priors(priors: list[str], tasks: list[str], seeds: list[int], worke
 def inference_ms(prior: str, task: str, seed: int, calls: int = 20, threads: int = 2) -> float:
     """Median milliseconds of one ``predict`` call for one arm on real observations, with ``threads`` threads."""
     from bimanualshift.data.frames import KeyframeObservation, scene_of_env
+    from bimanualshift.sim.env_cache import cached_env
 
     torch.set_num_threads(threads)
     policy = _policy(prior)
     stage = policy.stage
-    env = _env(task)
+    env = cached_env(task)
     obs, _ = env.reset(seed=seed)
     frame = KeyframeObservation.from_env(obs, scene_of_env(env))
     per_arm = stage.builder.build(frame)
@@ -124,10 +109,9 @@ def prior_rows(priors: list[str], episodes: list[PriorEpisode], tasks: list[str]
             mine = [e for e in episodes if e.prior == prior and e.task == task]
             if not mine:
                 raise ValueError(f"no finished episode of {prior} on {task} yet: let the report run longer")
-            k = sum(e.success for e in mine)
-            lo, hi = wilson_interval(k, len(mine))
-            per_task[task] = {"success": round(k / len(mine), 4), "ci95": [round(lo, 4), round(hi, 4)],
-                              "episodes": len(mine), "failed_seeds": [e.seed for e in mine if not e.success]}
+            rate = SuccessRate.of(e.success for e in mine).fields()
+            per_task[task] = {"success": rate["success"], "ci95": rate["ci95"], "episodes": rate["episodes"],
+                              "failed_seeds": [e.seed for e in mine if not e.success]}
         rows.append({
             "prior": prior, "type": config["type"],
             "mean_success": round(float(np.mean([v["success"] for v in per_task.values()])), 4),

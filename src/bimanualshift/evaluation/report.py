@@ -12,11 +12,9 @@ from typing import Any
 
 import numpy as np
 import torch
-from rich.console import Console
-from rich.table import Table
 
-from bimanualshift.evaluation.rollout import EpisodeRecord
-from bimanualshift.evaluation.stats import wilson_interval
+from bimanualshift.evaluation.stats import SuccessRate, SuccessRow
+from bimanualshift.rollout.loop import EpisodeRecord
 from bimanualshift.utils.io import atomic_write_json
 
 
@@ -53,11 +51,9 @@ def success_rows(records: list[EpisodeRecord], **extra: Any) -> list[dict[str, A
             mine = [r for r in records if r.method == method and r.task == task]
             if not mine:
                 continue
-            k = sum(r.success for r in mine)
-            lo, hi = wilson_interval(k, len(mine))
-            rows.append({"task": task, "method": method, **extra, "success": round(k / len(mine), 4),
-                         "episodes": len(mine), "ci95": [round(lo, 4), round(hi, 4)],
-                         "mean_keyframes": round(float(np.mean([r.keyframes for r in mine])), 2)})
+            rows.append(SuccessRow(task, method, SuccessRate.of(r.success for r in mine), context=extra,
+                                   details={"mean_keyframes": round(float(np.mean([r.keyframes for r in mine])), 2)}
+                                   ).to_dict())
     return rows
 
 
@@ -71,11 +67,3 @@ def write_result(path: str | Path, command: str, seeds: dict[str, list[int]], st
     return Path(path)
 
 
-def print_success_table(rows: list[dict[str, Any]], title: str) -> None:
-    table = Table(title=title)
-    for col in ("task", "method", "success", "95% CI", "episodes"):
-        table.add_column(col, justify="right" if col not in ("task", "method") else "left")
-    for r in rows:
-        table.add_row(r["task"], r["method"], f"{100 * r['success']:.1f} %",
-                      f"[{100 * r['ci95'][0]:.1f}, {100 * r['ci95'][1]:.1f}]", str(r["episodes"]))
-    Console().print(table)

@@ -1,8 +1,11 @@
-"""Success-rate statistics: Wilson score intervals at 95 %."""
+"""Success-rate statistics: Wilson score intervals at 95 %, and the success row every result file holds."""
 
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from typing import Any
 
 
 def wilson_interval(successes: int, trials: int, z: float = 1.959964) -> tuple[float, float]:
@@ -15,3 +18,41 @@ def wilson_interval(successes: int, trials: int, z: float = 1.959964) -> tuple[f
     centre = (p + z * z / (2 * trials)) / denom
     half = z * math.sqrt(p * (1 - p) / trials + z * z / (4 * trials * trials)) / denom
     return max(0.0, centre - half), min(1.0, centre + half)
+
+
+@dataclass(frozen=True)
+class SuccessRate:
+    """k successes in n episodes: what every success row of every result file is built from."""
+
+    successes: int
+    episodes: int
+
+    @staticmethod
+    def of(outcomes: Iterable[bool]) -> SuccessRate:
+        outcomes = [bool(o) for o in outcomes]
+        return SuccessRate(sum(outcomes), len(outcomes))
+
+    @property
+    def rate(self) -> float:
+        return self.successes / self.episodes
+
+    def fields(self) -> dict[str, Any]:
+        """``success``, ``episodes`` and the Wilson ``ci95``, rounded as result files hold them."""
+        lo, hi = wilson_interval(self.successes, self.episodes)
+        return {"success": round(self.rate, 4), "episodes": self.episodes, "ci95": [round(lo, 4), round(hi, 4)]}
+
+
+@dataclass
+class SuccessRow:
+    """One measured cell of a result file. ``to_dict`` gives the keys of docs/results-format.md in order: task,
+    method, the cell's context (demos, perturbation, ...), success, episodes, ci95, then its details (stages,
+    mean keyframes, failed seeds, ...)."""
+
+    task: str
+    method: str
+    rate: SuccessRate
+    context: dict[str, Any] = field(default_factory=dict)
+    details: dict[str, Any] = field(default_factory=dict)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"task": self.task, "method": self.method, **self.context, **self.rate.fields(), **self.details}

@@ -16,8 +16,10 @@ from dataclasses import asdict, replace
 from pathlib import Path
 from typing import Any
 
-from bimanualshift.evaluation.bench import BenchConfig, average_row, bench_table, draw_plots, run_bench, stage_table
-from bimanualshift.evaluation.targets import study_targets, targets_table
+from bimanualshift.evaluation.bench import BenchConfig, average_row, run_bench
+from bimanualshift.evaluation.plots import draw_plots
+from bimanualshift.evaluation.tables import bench_table, stage_table, targets_table
+from bimanualshift.evaluation.targets import study_targets
 from bimanualshift.utils.io import atomic_write_text
 
 BASELINES = ["bimanualshift", "peract_lf", "dp_lf", "scratch_voxel", "scratch_dp", "scratch_act", "anybimanual"]

@@ -79,10 +79,3 @@ def study_targets(study: str, rows: list[dict[str, Any]]) -> list[dict[str, Any]
     return STUDY_TARGETS[study](rows) if study in STUDY_TARGETS else []
 
 
-def targets_table(targets: list[dict[str, Any]]) -> str:
-    if not targets:
-        return ""
-    verdict = {True: "met", False: "**missed**", None: "not measured"}
-    lines = ["| target | measured | |", "|---|---|---|"]
-    lines += [f"| {t['target']} | {t['measured']} | {verdict[t['met']]} |" for t in targets]
-    return "\n".join(lines) + "\n"

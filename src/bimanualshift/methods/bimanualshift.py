@@ -16,7 +16,7 @@ from bimanualshift.encoders.text import DEFAULT_SPEC, TextEncoder, default_text_
 from bimanualshift.geometry.frames import compose_rotation
 from bimanualshift.memory.bank import MemoryBank, Retrieval
 from bimanualshift.memory.reference import episode_key, reference_vector
-from bimanualshift.methods.stages import ArmStep, FrozenPriorStage, world_action
+from bimanualshift.methods.prior_step import ArmStep, FrozenPriorStage, world_action
 from bimanualshift.priors.base import UnimanualPrior
 from bimanualshift.residual.manager import ResidualConfig, ResidualPolicy, manager_inputs, phase_one_hot
 from bimanualshift.residual.skills import SkillBasis

@@ -11,7 +11,7 @@ import numpy as np
 
 from bimanualshift.data.frames import KeyframeObservation
 from bimanualshift.encoders.text import TextEncoder
-from bimanualshift.methods.stages import FrozenPriorStage, world_action
+from bimanualshift.methods.prior_step import FrozenPriorStage, world_action
 from bimanualshift.priors.base import UnimanualPrior
 
 

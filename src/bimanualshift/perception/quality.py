@@ -16,7 +16,9 @@ from bimanualshift.data.frames import KeyframeObservation
 from bimanualshift.geometry.voxels import VoxelGrid
 from bimanualshift.perception.observation import world_point_cloud
 from bimanualshift.perception.projection import ArmProjection
-from bimanualshift.viz.projection_figure import WORLD_GRID
+
+# 2 cm cells over the table-top workspace: what the quality figures and the projection figure count in
+WORLD_GRID = VoxelGrid((-0.55, -0.6, 0.78, 0.45, 0.6, 1.4), 56)
 
 
 def voxel_set(points: np.ndarray, grid: VoxelGrid) -> set[int]:
@@ -98,3 +100,8 @@ def projection_quality(task: str, seeds: list[int], segmenters: list[str], image
                          "wanted_voxels": wanted, "other_arm_voxels": other,
                          "diagnostics": vars(projections[name].diagnostics).copy()})
     return rows
+
+
+def projection_quality_job(job: tuple[str, list[int], list[str], int]) -> list[dict]:
+    """``projection_quality`` of one (task, seeds, segmenters, image size) in a worker process."""
+    return projection_quality(*job, progress=False)

@@ -19,15 +19,18 @@ from __future__ import annotations
 
 import json
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, fields
+from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any, ClassVar, TypeVar
 
 import torch
-from safetensors.torch import load_file, save_file
+from safetensors.torch import save_file
 from torch import nn
 
+from bimanualshift.configs import prior_model_config
+from bimanualshift.utils.config_files import CheckpointError, config_from_dict, load_safetensors, read_json_file
 from bimanualshift.utils.io import atomic_write_text, atomic_writer
+from bimanualshift.utils.plugins import load_plugins
 
 
 @dataclass
@@ -112,22 +115,23 @@ class UnimanualPrior(nn.Module):
             if not p.is_file():
                 raise FileNotFoundError(f"prior checkpoint {directory} has no {p.name}; expected config.json and "
                                         "model.safetensors (train one with `bimanualshift pretrain`)")
-        raw = json.loads(cfg_path.read_text())
+        raw = read_json_file(cfg_path, "prior's config")
         kind = raw.get("type")
         if kind not in PRIORS:
-            raise ValueError(f"{cfg_path}: unknown prior type {kind!r}; known: {sorted(PRIORS)}")
+            load_plugins()  # a user's prior type, registered by a plugin
+        if kind not in PRIORS:
+            raise CheckpointError(f"{cfg_path}: unknown prior type {kind!r}; known: {sorted(PRIORS)} (a prior of "
+                                  "your own registers with @register_prior in a --plugin module)")
         cls = PRIORS[kind]
-        names = {f.name for f in fields(cls.config_class)}
-        config = cls.config_class(**{k: (tuple(v) if isinstance(v, list) else v) for k, v in raw.items() if k in names})
-        model = cls(config)
-        state = load_file(str(weights))
+        model = cls(config_from_dict(cls.config_class, raw, cfg_path))
+        state = load_safetensors(weights)
         expected = model.state_dict()
         problems = [f"{k}: checkpoint {tuple(state[k].shape)} vs model {tuple(v.shape)}"
                     for k, v in expected.items() if k in state and state[k].shape != v.shape]
         missing = [k for k in expected if k not in state]
         unexpected = [k for k in state if k not in expected]
         if problems or missing or unexpected:
-            raise ValueError(f"{weights} does not match its config.json: shape mismatches {problems}, "
+            raise CheckpointError(f"{weights} does not match its config.json: shape mismatches {problems}, "
                              f"missing {missing[:5]}, unexpected {unexpected[:5]}")
         model.load_state_dict(state)
         return model
@@ -165,3 +169,25 @@ def register_prior(name: str) -> Callable[[P], P]:
         return cls
 
     return wrap
+
+
+PRIOR_ALIASES = {"dp": "diffusion"}
+
+
+def prior_type(name: str) -> str:
+    """A registered prior type from its name or alias (dp = diffusion); a clear error otherwise."""
+    kind = PRIOR_ALIASES.get(name, name)
+    if kind not in PRIORS:
+        load_plugins()
+    if kind not in PRIORS:
+        raise ValueError(f"unknown prior {name!r}; available: {sorted(PRIORS)} (dp = diffusion)")
+    return kind
+
+
+def build_prior(name: str, size: str = "default", model: dict[str, Any] | None = None) -> UnimanualPrior:
+    """A fresh network of prior type ``name``: a named size from ``bimanualshift.configs``, then ``model``'s
+    config-field overrides on top."""
+    kind = prior_type(name)
+    cls = PRIORS[kind]
+    values = {**prior_model_config(kind, size), **(model or {})}
+    return cls(cls.config_class(**{k: tuple(v) if isinstance(v, list) else v for k, v in values.items()}))

@@ -20,15 +20,14 @@ import numpy as np
 from bimanualshift.geometry.frames import ArmFrame, canonical_quat, rotation_angle, slerp
 from bimanualshift.sim.arm_control import ArmIndexes, OscArms
 from bimanualshift.sim.cameras import CameraRig, default_camera_names, wrist_camera_names
+from bimanualshift.sim.layout import TABLE_TOP_Z, WORKSPACE_HIGH, WORKSPACE_LOW
 from bimanualshift.sim.perturb_scene import apply_to_model, mirror_bodies
 from bimanualshift.sim.perturbations import Perturbations
-from bimanualshift.sim.scene import TABLE_TOP_Z, RobosuiteScene
+from bimanualshift.sim.scene import RobosuiteScene
 from bimanualshift.sim.segmentation import SceneInstances
 from bimanualshift.sim.task import ACTION_DIM, ArmAction, Keyframe, SimHandle, Task, make_task
 
 PROPRIO_DIM = 8
-WORKSPACE_LOW = np.array([-0.55, -0.75, TABLE_TOP_Z - 0.02])
-WORKSPACE_HIGH = np.array([0.45, 0.75, TABLE_TOP_Z + 0.65])
 
 
 # Model fields a task or perturbation may set per episode; data fields that make up the simulator's state.

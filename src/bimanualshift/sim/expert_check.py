@@ -6,9 +6,8 @@ import time
 from dataclasses import dataclass
 
 from bimanualshift.sim.env import ManipulationEnv
+from bimanualshift.sim.env_cache import cached_env
 from bimanualshift.utils.workers import run_jobs
-
-_ENVS: dict[str, ManipulationEnv] = {}
 
 
 @dataclass(frozen=True)
@@ -31,9 +30,7 @@ def run_expert(env: ManipulationEnv, seed: int) -> ExpertEpisode:
 
 def _run_job(job: tuple[str, int]) -> ExpertEpisode:
     task, seed = job
-    if task not in _ENVS:
-        _ENVS[task] = ManipulationEnv(task, image_size=64)
-    return run_expert(_ENVS[task], seed)
+    return run_expert(cached_env(task, image_size=64), seed)
 
 
 def check_experts(tasks: list[str], seeds: list[int], workers: int = 1, executor: str = "local"

@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from bimanualshift.sim.layout import TABLE_TOP_Z
 from bimanualshift.sim.props.oven import (
     DOOR_THICKNESS,
     HANDLE_HEIGHT,
@@ -30,7 +31,6 @@ from bimanualshift.sim.props.sweeping import (
     HANDLE_GRASP_X,
     HANDLE_Z,
 )
-from bimanualshift.sim.scene import TABLE_TOP_Z
 from bimanualshift.sim.task import ArmAction, Keyframe, SimHandle, down_quat
 
 # ---- oven door and tray ---------------------------------------------------------------------------------

@@ -32,13 +32,8 @@ from bimanualshift.geometry.frames import ArmFrame  # noqa: E402
 from bimanualshift.sim.arm_control import OSC_KP  # noqa: E402
 from bimanualshift.sim.camera_meshes import lighten_visual_meshes  # noqa: E402
 from bimanualshift.sim.cameras import STATIC_CAMERAS, camera_xml  # noqa: E402
+from bimanualshift.sim.layout import BIMANUAL_ARM_Y, TABLE_SIZE, TABLE_TOP_Z, UNIMANUAL_ARM_Y  # noqa: E402
 from bimanualshift.sim.task import Task  # noqa: E402
-
-TABLE_SIZE = (0.8, 1.6, 0.05)
-TABLE_TOP_Z = 0.8
-ROBOT_X = -0.16 - TABLE_SIZE[0] / 2  # robosuite's default base offset for a table
-BIMANUAL_ARM_Y = {"left": 0.3, "right": -0.3}  # the robot's left is +y when it faces +x
-UNIMANUAL_ARM_Y = {"right": 0.0}
 
 
 def arm_base_y(task: Task) -> dict[str, float]:

@@ -15,11 +15,9 @@ from typing import Any, ClassVar, TypeVar
 import mujoco
 import numpy as np
 
-from bimanualshift.sim.colours import RGB, TRAIN_COLOURS, UNSEEN_COLOURS
+from bimanualshift.core.arms import ARM_NAMES_BIMANUAL, ARM_NAMES_UNIMANUAL
+from bimanualshift.core.colours import RGB, TRAIN_COLOURS, UNSEEN_COLOURS
 from bimanualshift.sim.perturbations import Perturbations
-
-ARM_NAMES_BIMANUAL = ("left", "right")
-ARM_NAMES_UNIMANUAL = ("right",)
 
 # The gripper pointing straight down as in the Panda's initial pose ((x, y, z, w) quaternion).
 # In this pose the fingers open along the world y axis and the hand is thin along x.
@@ -165,7 +163,7 @@ class Task(ABC):
     def goal_nouns(self) -> list[str]:
         """Object categories the instruction is about (what a segmenter is prompted with): by default the
         direct objects found by ``perception.goal_nouns``' rules; a task overrides this to add context."""
-        from bimanualshift.perception.goal_nouns import extract_goal_nouns
+        from bimanualshift.core.goal_nouns import extract_goal_nouns
 
         return extract_goal_nouns(self.instruction())
 
@@ -231,17 +229,22 @@ def register_task(name: str) -> Callable[[T], T]:
     return wrap
 
 
-def make_task(name: str, perturbations: Perturbations | None = None) -> Task:
-    from bimanualshift.sim import tasks  # noqa: F401 - importing registers every task
+def _register_all() -> None:
+    from bimanualshift.sim import tasks  # noqa: F401 - importing registers every built-in task
+    from bimanualshift.utils.plugins import load_plugins
 
+    load_plugins()  # and the user's (entry points, --plugin)
+
+
+def make_task(name: str, perturbations: Perturbations | None = None) -> Task:
+    _register_all()
     if name not in TASKS:
         raise KeyError(f"unknown task {name!r}; registered tasks: {', '.join(sorted(TASKS))}")
     return TASKS[name](perturbations)
 
 
 def task_names(bimanual: bool | None = None) -> list[str]:
-    from bimanualshift.sim import tasks  # noqa: F401
-
+    _register_all()
     return sorted(n for n, c in TASKS.items() if bimanual is None or c.bimanual == bimanual)
 
 

@@ -17,21 +17,20 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from bimanualshift.configs import prior_model_config
 from bimanualshift.data.episode import list_episodes, read_episode
 from bimanualshift.encoders.text import default_text_encoder
 from bimanualshift.geometry.voxels import VoxelGrid
+from bimanualshift.perception.arm_samples import ArmSamples, action_chunks, build_arm_samples
 from bimanualshift.perception.observation import ArmObservationBuilder
-from bimanualshift.priors import PRIORS, UnimanualPrior
+from bimanualshift.priors import UnimanualPrior
+from bimanualshift.priors.base import build_prior as build_prior_network
+from bimanualshift.priors.base import prior_type
 from bimanualshift.sim.task import resolve_task_names, task_names
 from bimanualshift.training.augment import Se3Augmentation, transform_points, transform_quats, transform_voxels
 from bimanualshift.training.distributed import Distributed, init_distributed, loss_module
 from bimanualshift.training.loop import run_training
 from bimanualshift.training.optim import make_optimizer
-from bimanualshift.training.samples import ArmSamples, action_chunks, build_arm_samples
 from bimanualshift.utils.io import atomic_write_json, atomic_write_text
-
-PRIOR_ALIASES = {"dp": "diffusion"}
 
 
 @dataclass
@@ -53,19 +52,8 @@ class PretrainConfig:
     model: dict = field(default_factory=dict)  # overrides of the prior's config fields, e.g. {"dim": 64}
 
 
-def prior_type(name: str) -> str:
-    kind = PRIOR_ALIASES.get(name, name)
-    if kind not in PRIORS:
-        raise ValueError(f"unknown prior {name!r}; available: {sorted(PRIORS)} (dp = diffusion)")
-    return kind
-
-
 def build_prior(cfg: PretrainConfig) -> UnimanualPrior:
-    kind = prior_type(cfg.prior)
-    cls = PRIORS[kind]
-    values = {**prior_model_config(kind, cfg.size), **cfg.model}
-    config = cls.config_class(**{k: tuple(v) if isinstance(v, list) else v for k, v in values.items()})
-    return cls(config)
+    return build_prior_network(cfg.prior, cfg.size, cfg.model)
 
 
 class PriorBatches:

@@ -29,17 +29,18 @@ from safetensors.torch import load_file, save_file
 from tqdm import tqdm
 
 from bimanualshift.data.episode import list_episodes
-from bimanualshift.data.frames import KeyframeObservation, scene_of_env
+from bimanualshift.data.frames import KeyframeObservation
 from bimanualshift.data.seeds import split_seeds
 from bimanualshift.encoders.text import TextEncoder
 from bimanualshift.geometry.frames import rotation_difference
 from bimanualshift.memory.bank import MemoryBank, MemoryEntry
 from bimanualshift.methods.bimanualshift import MEMORY_FILE, BimanualShift, load_bimanualshift, save_residual
+from bimanualshift.residual.output_gate import choose_output_scale, reset_output_scale
+from bimanualshift.rollout.loop import rollout
 from bimanualshift.sim.env import ManipulationEnv
 from bimanualshift.training.loop import run_training
 from bimanualshift.training.optim import make_lamb
-from bimanualshift.training.output_gate import choose_output_scale, reset_output_scale
-from bimanualshift.training.residual import ResidualData, bc_loss, residual_data
+from bimanualshift.training.residual_trainer import ResidualData, bc_loss, residual_data
 from bimanualshift.utils.io import atomic_write_json, atomic_writer
 
 
@@ -95,13 +96,10 @@ def run_policy(env: ManipulationEnv, policy: BimanualShift, seed: int, max_keyfr
                ) -> tuple[bool, np.ndarray, np.ndarray | None, Correction]:
     """One episode; with ``corrector`` (the expert's world-frame actions per keyframe) straying arms are
     overridden and recorded. Returns (success, executed arm-frame trajectory, memory key, corrections)."""
-    obs, _ = env.reset(seed=seed)
-    scene = scene_of_env(env)
-    policy.reset()
-    trajectory, correction, success = [], Correction([], [], []), False
-    steps = len(corrector) if corrector is not None else max_keyframes
-    for k in range(steps):
-        decisions = policy.decide(KeyframeObservation.from_env(obs, scene))
+    trajectory, correction = [], Correction([], [], [])
+
+    def act(k: int, obs: KeyframeObservation) -> np.ndarray:
+        decisions = policy.decide(obs)
         executed = np.stack([d.action for d in decisions])
         if corrector is not None:
             for i, d in enumerate(decisions):
@@ -115,10 +113,11 @@ def run_policy(env: ManipulationEnv, policy: BimanualShift, seed: int, max_keyfr
                 correction.translation.append(pos - base.position[0].numpy())
                 correction.rotation.append(rotation_difference(quat, base.quat[0].numpy()))
         trajectory.append(_trajectory_row(decisions, executed))
-        obs, _, success, truncated, _ = env.step(executed)
-        if success or truncated:
-            break
-    success = bool(success or env.success())
+        return executed
+
+    steps = len(corrector) if corrector is not None else max_keyframes
+    record = rollout(env, policy, seed, steps, act=act)
+    success = bool(record.success or env.success())
     return success, np.stack(trajectory), policy.first_key(), correction
 
 

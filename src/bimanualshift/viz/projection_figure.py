@@ -15,10 +15,8 @@ from bimanualshift.data.frames import KeyframeObservation  # noqa: E402
 from bimanualshift.geometry.voxels import VoxelGrid  # noqa: E402
 from bimanualshift.perception.observation import world_point_cloud  # noqa: E402
 from bimanualshift.perception.projection import ArmProjection  # noqa: E402
+from bimanualshift.perception.quality import WORLD_GRID  # noqa: E402
 from bimanualshift.utils.io import atomic_writer  # noqa: E402
-
-# The table-top workspace in world coordinates (both arms' reach), 2 cm voxels at 56^3.
-WORLD_GRID = VoxelGrid((-0.55, -0.6, 0.78, 0.45, 0.6, 1.4), 56)
 
 
 def occupied_voxels(points: np.ndarray, colours: np.ndarray, grid: VoxelGrid) -> tuple[np.ndarray, np.ndarray]:

@@ -14,7 +14,6 @@ fine-tuned backbone instead of a frozen prior with a residual.
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass
-from pathlib import Path
 
 import numpy as np
 import torch
@@ -22,13 +21,12 @@ from torch import nn
 
 from bimanualshift.encoders.text import TextEncoder, default_text_encoder
 from bimanualshift.geometry.voxels import VOXEL_CHANNELS
-from bimanualshift.methods.baselines.scratch_voxel import ARMS, EXTRA_PROPRIO, ScratchVoxelPolicy, sample_extras
-from bimanualshift.methods.registry import TrainRequest
+from bimanualshift.methods.baselines.from_scratch import ARMS, EXTRA_PROPRIO, ScratchVoxelPolicy, sample_extras
+from bimanualshift.methods.baselines.network_spec import OWN_PROPRIO, VoxelNetworkSpec, widen_from_prior
 from bimanualshift.priors.base import UnimanualPrior, register_prior
 from bimanualshift.priors.peract.configuration_peract import PerActConfig
 from bimanualshift.priors.peract.modeling_peract import PerActPrior
 from bimanualshift.residual.skills import DEFAULT_SKILL_VERBS
-from bimanualshift.training.bimanual_voxel import OWN_PROPRIO, VoxelNetworkSpec, train_voxel_network, widen_from_prior
 
 ONEHOT_START = OWN_PROPRIO + 8  # the arm one-hot follows the arm's own and the other arm's proprio
 
@@ -88,11 +86,6 @@ def build_anybimanual(prior: UnimanualPrior | None, extra_dim: int, size: str,
 
 SPEC = VoxelNetworkSpec("anybimanual", arms=ARMS, extra_dim=EXTRA_PROPRIO, extra_proprio=sample_extras,
                         extra_poses=(0,), init_from_prior=True, build=build_anybimanual)
-
-
-def train_anybimanual(request: TrainRequest, size: str = "default", lr: float = 5e-4, batch_size: int = 4,
-                      checkpoint_every: int = 250) -> Path:
-    return train_voxel_network(SPEC, request, Path(request.out), size, lr, batch_size, checkpoint_every)
 
 
 class AnyBimanualPolicy(ScratchVoxelPolicy):

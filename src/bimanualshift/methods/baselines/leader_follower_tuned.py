@@ -20,11 +20,9 @@ import torch
 from bimanualshift.data.frames import KeyframeObservation
 from bimanualshift.encoders.text import TextEncoder
 from bimanualshift.geometry.frames import ArmFrame
+from bimanualshift.methods.baselines.network_spec import OWN_PROPRIO, VoxelNetworkSpec
 from bimanualshift.methods.baselines.voxel_policy import VoxelNetworkRunner
-from bimanualshift.methods.registry import TrainRequest
-from bimanualshift.training.bimanual_voxel import OWN_PROPRIO, VoxelNetworkSpec, train_voxel_network
-from bimanualshift.training.samples import ArmSamples
-from bimanualshift.utils.io import atomic_write_json
+from bimanualshift.perception.arm_samples import ArmSamples
 
 LEADER, FOLLOWER = "right", "left"
 LEADER_ACTION = 8  # position, quaternion, gripper
@@ -57,37 +55,6 @@ FOLLOWER_SPEC = VoxelNetworkSpec("lf_follower", arms=(FOLLOWER,), extra_dim=LEAD
 
 DP_LEADER_SPEC = replace(LEADER_SPEC, name="dp_lf_leader", kind="diffusion")
 DP_FOLLOWER_SPEC = replace(FOLLOWER_SPEC, name="dp_lf_follower", kind="diffusion")
-
-
-def train_leader_follower(request: TrainRequest, size: str = "default", lr: float = 5e-4, batch_size: int = 4,
-                          checkpoint_every: int = 250, init_from: str = "", kind: str = "peract",
-                          optimizer: str = "lamb") -> Path:
-    """Fine-tune the pair from the single-arm prior, or (continual learning) from an earlier pair's run folder
-    ``init_from``: each network then starts from its own earlier weights."""
-    out = Path(request.out)
-    starts = {"leader": request, "follower": request}
-    if init_from:
-        path = Path(init_from) / "pair.json"
-        if not path.is_file():
-            raise FileNotFoundError(f"init_from={init_from!r}: no leader-follower pair there (pair.json missing)")
-        earlier = json.loads(path.read_text())
-        starts = {role: replace(request, prior=earlier[role]) for role in starts}
-    specs = (LEADER_SPEC, FOLLOWER_SPEC) if kind == "peract" else (DP_LEADER_SPEC, DP_FOLLOWER_SPEC)
-    leader = train_voxel_network(specs[0], starts["leader"], out / "leader", size, lr, batch_size, checkpoint_every,
-                                 optimizer)
-    follower = train_voxel_network(specs[1], starts["follower"], out / "follower", size, lr, batch_size,
-                                   checkpoint_every, optimizer)
-    atomic_write_json(out / "pair.json", {"type": f"{'peract' if kind == 'peract' else 'dp'}_lf",
-                                          "leader": str(leader), "follower": str(follower)})
-    return out
-
-
-def train_dp_leader_follower(request: TrainRequest, prior: str = "dp_suite", lr: float = 1e-4, **kwargs: object
-                             ) -> Path:
-    """DP-LF: the pair fine-tuned from a Diffusion Policy prior (the shipped one unless ``prior`` names another;
-    the benchmark's ``--prior`` names the PerAct-style prior the other methods use)."""
-    return train_leader_follower(replace(request, prior=prior), lr=lr, kind="diffusion", optimizer="adamw",
-                                 **kwargs)  # type: ignore[arg-type]
 
 
 class LeaderFollowerPolicy:

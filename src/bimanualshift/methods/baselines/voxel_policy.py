@@ -13,10 +13,10 @@ from bimanualshift.data.frames import KeyframeObservation
 from bimanualshift.encoders.text import TextEncoder
 from bimanualshift.geometry.frames import ArmFrame
 from bimanualshift.geometry.voxels import VoxelGrid
-from bimanualshift.methods.stages import world_action
+from bimanualshift.methods.baselines.network_spec import OWN_PROPRIO
+from bimanualshift.methods.prior_step import world_action
 from bimanualshift.perception.observation import ArmObservation, ArmObservationBuilder, arm_frames
 from bimanualshift.priors.base import PriorOutput, UnimanualPrior
-from bimanualshift.training.bimanual_voxel import OWN_PROPRIO
 
 
 @dataclass

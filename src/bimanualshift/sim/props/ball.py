@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from bimanualshift.sim.scene import TABLE_TOP_Z
+from bimanualshift.sim.layout import TABLE_TOP_Z
 
 BALL_RADIUS = 0.065
 

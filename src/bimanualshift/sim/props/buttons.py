@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from bimanualshift.sim.scene import TABLE_TOP_Z
+from bimanualshift.sim.layout import TABLE_TOP_Z
 from bimanualshift.sim.task import DOWN_QUAT, ArmAction, Keyframe, SimHandle
 
 BUTTON_RADIUS = 0.035

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from bimanualshift.sim.scene import TABLE_TOP_Z
+from bimanualshift.sim.layout import TABLE_TOP_Z
 from bimanualshift.sim.task import SimHandle
 
 PLINTH = 0.04  # oven floor (and hinge) height above the table

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from bimanualshift.sim.scene import TABLE_TOP_Z
+from bimanualshift.sim.layout import TABLE_TOP_Z
 
 FOOT_HEIGHT = 0.010
 FLOOR_HALF = 0.003

@@ -10,7 +10,7 @@ import mujoco
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from bimanualshift.sim.scene import TABLE_TOP_Z
+from bimanualshift.sim.layout import TABLE_TOP_Z
 from bimanualshift.sim.task import SimHandle
 
 CABLE_PLUGIN = "mujoco.elasticity.cable"

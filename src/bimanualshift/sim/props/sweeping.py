@@ -14,8 +14,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from bimanualshift.sim.layout import TABLE_TOP_Z
 from bimanualshift.sim.props.placement import sample_separated
-from bimanualshift.sim.scene import TABLE_TOP_Z
 from bimanualshift.sim.task import SimHandle
 
 PAN_LENGTH, PAN_WIDTH = 0.12, 0.20

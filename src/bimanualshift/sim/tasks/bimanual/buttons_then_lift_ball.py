@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from bimanualshift.sim.layout import TABLE_TOP_Z
 from bimanualshift.sim.props.ball import BALL_RADIUS, ball_xml
 from bimanualshift.sim.props.buttons import (
     button_xml,
@@ -15,7 +16,6 @@ from bimanualshift.sim.props.buttons import (
     press_keyframes,
     tops_by_side,
 )
-from bimanualshift.sim.scene import TABLE_TOP_Z
 from bimanualshift.sim.task import Keyframe, SimHandle, Task, register_task
 from bimanualshift.sim.tasks.bimanual.lift_ball import LIFTED_BY, squeeze_and_lift
 

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from bimanualshift.sim.layout import TABLE_TOP_Z
 from bimanualshift.sim.props.ball import BALL_RADIUS, ball_xml
-from bimanualshift.sim.scene import TABLE_TOP_Z
 from bimanualshift.sim.task import ArmAction, Keyframe, SimHandle, Task, down_quat, register_task
 
 REGION = ((-0.08, 0.12), (-0.10, 0.10))

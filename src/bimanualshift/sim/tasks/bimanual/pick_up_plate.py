@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from bimanualshift.sim.layout import TABLE_TOP_Z
 from bimanualshift.sim.props.plate import RIM_HEIGHT, plate_xml
-from bimanualshift.sim.scene import TABLE_TOP_Z
 from bimanualshift.sim.task import DOWN_QUAT, ArmAction, Keyframe, SimHandle, Task, register_task
 
 RADIUS = 0.12

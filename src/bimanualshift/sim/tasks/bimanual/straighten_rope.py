@@ -5,6 +5,7 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
+from bimanualshift.sim.layout import TABLE_TOP_Z
 from bimanualshift.sim.motions import carry_rope_end, zip_arms
 from bimanualshift.sim.props.markers import marker_xml
 from bimanualshift.sim.props.rope import (
@@ -16,7 +17,6 @@ from bimanualshift.sim.props.rope import (
     shape_rope,
     show_rope,
 )
-from bimanualshift.sim.scene import TABLE_TOP_Z
 from bimanualshift.sim.task import Keyframe, SimHandle, Task, register_task
 
 TARGET_RADIUS = 0.06

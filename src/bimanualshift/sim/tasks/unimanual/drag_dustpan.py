@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from bimanualshift.sim.layout import TABLE_TOP_Z
 from bimanualshift.sim.motions import hold_dustpan
 from bimanualshift.sim.props.markers import marker_xml
 from bimanualshift.sim.props.sweeping import PAN_LENGTH, dustpan_xml
-from bimanualshift.sim.scene import TABLE_TOP_Z
 from bimanualshift.sim.task import ArmAction, Keyframe, SimHandle, Task, register_task
 
 TARGET_RADIUS = 0.04

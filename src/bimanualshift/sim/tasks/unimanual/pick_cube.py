@@ -6,9 +6,9 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from bimanualshift.geometry.frames import canonical_quat
+from bimanualshift.sim.layout import TABLE_TOP_Z
 from bimanualshift.sim.props.blocks import CUBE_HALF, cube_xml
 from bimanualshift.sim.props.placement import sample_separated
-from bimanualshift.sim.scene import TABLE_TOP_Z
 from bimanualshift.sim.task import DOWN_QUAT, ArmAction, Keyframe, SimHandle, Task, register_task
 
 CUBES = ("cube_0", "cube_1", "cube_2")

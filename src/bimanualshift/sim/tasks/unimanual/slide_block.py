@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from bimanualshift.sim.layout import TABLE_TOP_Z
 from bimanualshift.sim.props.blocks import CUBE_HALF, cube_xml
 from bimanualshift.sim.props.markers import marker_xml
-from bimanualshift.sim.scene import TABLE_TOP_Z
 from bimanualshift.sim.task import ArmAction, Keyframe, SimHandle, Task, down_quat, register_task
 
 TARGET_RADIUS = 0.035

@@ -9,20 +9,22 @@ import pytest
 import torch
 from safetensors.torch import load_file
 
-from bimanualshift.evaluation.rollout import rollout
 from bimanualshift.geometry.voxels import VoxelGrid
-from bimanualshift.methods.baselines.scratch_voxel import ScratchVoxelPolicy, scratch_extras, train_scratch_voxel
-from bimanualshift.methods.registry import TrainRequest, get_method
+from bimanualshift.methods.baselines.from_scratch import ScratchVoxelPolicy, scratch_extras
+from bimanualshift.methods.baselines.network_spec import with_extra_proprio
 from bimanualshift.priors import UnimanualPrior
+from bimanualshift.registry import TrainRequest, get_method
+from bimanualshift.rollout.loop import rollout
 from bimanualshift.sim.env import ManipulationEnv
 from bimanualshift.training.augment import Se3Augmentation
-from bimanualshift.training.bimanual_voxel import with_extra_proprio
+from bimanualshift.training.baseline_configs import BackboneTrainConfig
+from bimanualshift.training.baseline_trainers import train_scratch_voxel
 from bimanualshift.training.checkpoint import latest_checkpoint
 from bimanualshift.training.pretrain import augment_batch
 
 
 def test_extra_proprio_sits_between_own_proprio_and_keyframe_fraction() -> None:
-    from bimanualshift.training.samples import ArmSamples
+    from bimanualshift.perception.arm_samples import ArmSamples
 
     n = 2
     samples = ArmSamples(np.zeros((n, 4, 2, 2, 2), np.float16), np.arange(18, dtype=np.float32).reshape(n, 9),
@@ -60,8 +62,8 @@ def test_trains_from_scratch_resumes_and_acts(demo_root: Path, tmp_path: Path) -
 
     spec = get_method("scratch_voxel")
     spec.train(request(tmp_path / "a", 2))
-    best = train_scratch_voxel(request(tmp_path / "a", 4), size="debug", checkpoint_every=2)
-    train_scratch_voxel(request(tmp_path / "b", 4), size="debug", checkpoint_every=2)
+    best = train_scratch_voxel(request(tmp_path / "a", 4), BackboneTrainConfig(size="debug", checkpoint_every=2))
+    train_scratch_voxel(request(tmp_path / "b", 4), BackboneTrainConfig(size="debug", checkpoint_every=2))
     resumed = load_file(str(latest_checkpoint(tmp_path / "a") / "model.safetensors"))
     straight = load_file(str(latest_checkpoint(tmp_path / "b") / "model.safetensors"))
     for key, value in straight.items():

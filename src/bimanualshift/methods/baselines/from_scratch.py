@@ -18,10 +18,9 @@ import torch
 from bimanualshift.data.frames import KeyframeObservation
 from bimanualshift.encoders.text import TextEncoder
 from bimanualshift.geometry.frames import ArmFrame
+from bimanualshift.methods.baselines.network_spec import OWN_PROPRIO, VoxelNetworkSpec
 from bimanualshift.methods.baselines.voxel_policy import VoxelNetworkRunner
-from bimanualshift.methods.registry import TrainRequest
-from bimanualshift.training.bimanual_voxel import OWN_PROPRIO, VoxelNetworkSpec, train_voxel_network
-from bimanualshift.training.samples import ArmSamples
+from bimanualshift.perception.arm_samples import ArmSamples
 
 ARMS = ("left", "right")
 EXTRA_PROPRIO = 8 + len(ARMS)  # the other arm's pose and gripper, the acting arm's one-hot
@@ -45,19 +44,6 @@ DP_SPEC = replace(SPEC, name="scratch_dp", kind="diffusion")
 ACT_SPEC = replace(SPEC, name="scratch_act", kind="act")
 
 
-def train_scratch_voxel(request: TrainRequest, size: str = "default", lr: float = 1e-3, batch_size: int = 4,
-                        checkpoint_every: int = 250) -> Path:
-    return train_voxel_network(SPEC, request, Path(request.out), size, lr, batch_size, checkpoint_every)
-
-
-def train_scratch_dp(request: TrainRequest, size: str = "default", lr: float = 3e-4, batch_size: int = 4,
-                     checkpoint_every: int = 250) -> Path:
-    """The Diffusion Policy network (point cloud of the global scene, action chunks) for both arms, from
-    scratch; AdamW as the shipped Diffusion Policy prior was pretrained with."""
-    return train_voxel_network(DP_SPEC, request, Path(request.out), size, lr, batch_size, checkpoint_every,
-                               optimizer="adamw")
-
-
 class ScratchVoxelPolicy:
     name = "scratch_voxel"
 
@@ -73,13 +59,6 @@ class ScratchVoxelPolicy:
         rows = [self.runner.act(view, arm, scratch_extras(view.per_arm[arm].other_proprio[None], [arm]))
                 for arm in obs.scene.arm_names]
         return np.stack(rows)
-
-
-def train_scratch_act(request: TrainRequest, size: str = "default", lr: float = 1e-4, batch_size: int = 4,
-                      checkpoint_every: int = 250) -> Path:
-    """ACT (CVAE transformer over action chunks) for both arms, from scratch; AdamW at ACT's learning rate."""
-    return train_voxel_network(ACT_SPEC, request, Path(request.out), size, lr, batch_size, checkpoint_every,
-                               optimizer="adamw")
 
 
 class ScratchDiffusionPolicy(ScratchVoxelPolicy):

@@ -15,7 +15,7 @@ from bimanualshift.perception.observation import ArmObservationBuilder, arm_fram
 from bimanualshift.perception.projection import ArmProjection
 from bimanualshift.perception.segmenters import make_segmenter
 from bimanualshift.priors.base import PriorOutput, UnimanualPrior
-from bimanualshift.sim.env import WORKSPACE_HIGH, WORKSPACE_LOW
+from bimanualshift.sim.layout import WORKSPACE_HIGH, WORKSPACE_LOW
 
 
 @dataclass

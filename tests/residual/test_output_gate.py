@@ -2,8 +2,8 @@ import pytest
 import torch
 
 from bimanualshift.residual.manager import ResidualConfig, ResidualPolicy, manager_inputs
+from bimanualshift.residual.output_gate import choose_output_scale, reset_output_scale
 from bimanualshift.residual.skills import SkillBasis
-from bimanualshift.training.output_gate import choose_output_scale, reset_output_scale
 
 
 def constant_residual(translation: list[float], rotation: list[float], gate: bool = True) -> ResidualPolicy:

@@ -1,34 +1,22 @@
-"""Every method the benchmark compares, by name: how it is trained on a task's demos and how it is loaded.
+"""Every method the benchmark compares, by name: its trainer, its typed training config and its loader.
 
 Methods share the task, data and rollout code; a method only says what differs (diffusion_policy's split of
 tasks and methods: N tasks + M methods cost N + M code). The ablations are the full method with one switch off.
+The registry sits above both the policies (``methods``) and their trainers (``training``), which it pairs.
 """
 
 from __future__ import annotations
 
 import json
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, fields, replace
 from pathlib import Path
 from typing import Any
 
 from bimanualshift.configs import RESIDUAL_STEPS
-from bimanualshift.evaluation.rollout import Policy
-
-
-@dataclass(frozen=True)
-class TrainRequest:
-    """What the benchmark hands every method: one task's demos and where to put the run."""
-
-    task: str
-    data: str  # train demos (one sub-folder per task)
-    validation_data: str  # validation demos (checkpoint choice)
-    demos: int
-    prior: str  # the frozen single-arm prior (a folder or a shipped name)
-    out: str  # the method's run directory for this task
-    steps: int = 1500
-    seed: int = 0
-    overrides: dict[str, Any] = field(default_factory=dict)  # extra TrainConfig fields
+from bimanualshift.core.policy import Policy
+from bimanualshift.training.baseline_configs import BackboneTrainConfig, LeaderFollowerTrainConfig
+from bimanualshift.training.request import TrainRequest
 
 
 @dataclass(frozen=True)
@@ -41,6 +29,7 @@ class MethodSpec:
     # ``overrides["init_from"]`` names that run's folder).
     continual: bool = False
     steps: int | None = None  # its default training steps (None: the benchmark's default)
+    config: Any = None  # its default typed training config (a dataclass the request's overrides are applied to)
 
 
 METHODS: dict[str, MethodSpec] = {}
@@ -63,7 +52,7 @@ def _residual_method(name: str, description: str, **switches: Any) -> MethodSpec
     """BimanualShift trained with ``switches`` (TrainConfig fields) on top of the request."""
 
     def train(request: TrainRequest) -> Path:
-        from bimanualshift.training.residual import TrainConfig, train_residual
+        from bimanualshift.training.residual_trainer import TrainConfig, train_residual
 
         cfg = TrainConfig(task=request.task, prior=request.prior, data=request.data,
                           validation_data=request.validation_data, out=request.out, demos=request.demos,
@@ -110,53 +99,76 @@ register_method(_frozen_prior_method(
 
 
 
-def _backbone_method(name: str, description: str, trainer: str, policy: str, continual: bool = False) -> MethodSpec:
-    """A baseline that trains or fine-tunes a voxel backbone; ``trainer`` / ``policy`` name functions in
-    ``bimanualshift.methods.baselines.<module>`` as "module:function"."""
+def method_config(default: Any, overrides: dict[str, Any], method: str) -> Any:
+    """The method's typed training config: its default with the request's ``overrides`` (field: value) applied;
+    an unknown field or a value of the wrong type is named with the fields the method has."""
+    names = {f.name: f for f in fields(default)}
+    unknown = sorted(set(overrides) - set(names))
+    if unknown:
+        raise ValueError(f"method {method!r} has no training option(s) {unknown}; its options: {sorted(names)}")
+    for key, value in overrides.items():
+        expected = type(getattr(default, key))
+        if expected is float and isinstance(value, int) and not isinstance(value, bool):
+            continue
+        if not isinstance(value, expected):
+            raise ValueError(f"method {method!r}: training option {key}={value!r} should be a {expected.__name__}")
+    return replace(default, **overrides)
 
-    def _resolve(ref: str) -> Callable[..., Any]:
-        import importlib
 
-        module, func = ref.split(":")
-        return getattr(importlib.import_module(f"bimanualshift.methods.baselines.{module}"), func)
+def _backbone_method(name: str, description: str, trainer: str, policy: str, config: Any,
+                     continual: bool = False) -> MethodSpec:
+    """A baseline that trains or fine-tunes a voxel backbone: ``trainer`` names a function of
+    ``bimanualshift.training.baseline_trainers``, ``policy`` a class as "module:Class" under
+    ``bimanualshift.methods.baselines``, ``config`` its default typed training config."""
 
     def train(request: TrainRequest) -> Path:
+        from bimanualshift.training import baseline_trainers
+        from bimanualshift.utils.io import atomic_write_json
+
+        cfg = method_config(config, request.overrides, name)
         done = Path(request.out) / "done.json"
         if done.is_file():  # trained by an earlier (interrupted) benchmark run
             return Path(json.loads(done.read_text()))
-        checkpoint = _resolve(trainer)(request, **request.overrides)
-        from bimanualshift.utils.io import atomic_write_json
-
-        atomic_write_json(Path(request.out) / "done.json", str(checkpoint))
+        checkpoint = getattr(baseline_trainers, trainer)(request, cfg)
+        atomic_write_json(done, str(checkpoint))
         return checkpoint
 
     def load(checkpoint: Path | None, request: TrainRequest) -> Policy:
+        import importlib
+
         from bimanualshift.encoders.text import default_text_encoder
 
-        return _resolve(policy)(checkpoint, default_text_encoder())
+        module, cls = policy.split(":")
+        return getattr(importlib.import_module(f"bimanualshift.methods.baselines.{module}"), cls)(
+            checkpoint, default_text_encoder())
 
-    return MethodSpec(name, description, train, load, continual)
+    return MethodSpec(name, description, train, load, continual, config=config)
 
 
+_BACKBONE = BackboneTrainConfig()
 register_method(_backbone_method(
     "scratch_voxel", "baseline: a PerAct2-style voxel policy for both arms trained from scratch on the bimanual demos "
-    "(global scene, no prior, no residual)", "scratch_voxel:train_scratch_voxel", "scratch_voxel:ScratchVoxelPolicy"))
+    "(global scene, no prior, no residual)", "train_scratch_voxel", "from_scratch:ScratchVoxelPolicy", _BACKBONE))
 register_method(_backbone_method(
     "peract_lf", "baseline: PerAct-LF, leader (right) and follower (left) networks fine-tuned from the single-arm "
     "prior on the bimanual demos; the follower conditions on the leader's action",
-    "leader_follower_tuned:train_leader_follower", "leader_follower_tuned:LeaderFollowerPolicy", continual=True))
+    "train_leader_follower", "leader_follower_tuned:LeaderFollowerPolicy", LeaderFollowerTrainConfig(),
+    continual=True))
 register_method(_backbone_method(
     "anybimanual", "baseline: AnyBimanual-style, the single-arm prior fine-tuned with learned soft voxel masks per arm "
-    "and skill-weighted language", "anybimanual:train_anybimanual", "anybimanual:AnyBimanualPolicy"))
+    "and skill-weighted language", "train_anybimanual", "anybimanual:AnyBimanualPolicy", replace(_BACKBONE, lr=5e-4)))
 register_method(_backbone_method(
     "dp_lf", "baseline: DP-LF, the leader-follower pair fine-tuned from the shipped Diffusion Policy prior (dp_suite) "
-    "on the bimanual demos", "leader_follower_tuned:train_dp_leader_follower",
-    "leader_follower_tuned:DiffusionLeaderFollowerPolicy", continual=True))
+    "on the bimanual demos", "train_leader_follower", "leader_follower_tuned:DiffusionLeaderFollowerPolicy",
+    # the benchmark's --prior names the PerAct-style prior the other methods use; DP-LF fine-tunes dp_suite
+    LeaderFollowerTrainConfig(lr=1e-4, optimizer="adamw", kind="diffusion", prior="dp_suite"), continual=True))
 register_method(_backbone_method(
     "scratch_dp", "baseline: a Diffusion Policy for both arms (point cloud of the global scene, the other arm's pose "
     "and the acting arm's one-hot as extra proprioception) trained from scratch on the bimanual demos only",
-    "scratch_voxel:train_scratch_dp", "scratch_voxel:ScratchDiffusionPolicy"))
+    # AdamW as the shipped Diffusion Policy prior was pretrained with
+    "train_scratch_dp", "from_scratch:ScratchDiffusionPolicy", replace(_BACKBONE, lr=3e-4, optimizer="adamw")))
 register_method(_backbone_method(
     "scratch_act", "baseline: ACT (a CVAE transformer predicting action chunks; point cloud of the global scene, the "
     "other arm's pose and the acting arm's one-hot as extra proprioception) trained from scratch on the bimanual demos",
-    "scratch_voxel:train_scratch_act", "scratch_voxel:ScratchACTPolicy"))
+    # AdamW at ACT's learning rate
+    "train_scratch_act", "from_scratch:ScratchACTPolicy", replace(_BACKBONE, lr=1e-4, optimizer="adamw")))

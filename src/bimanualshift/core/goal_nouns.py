@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import re
 
-from bimanualshift.sim.colours import TRAIN_COLOURS, UNSEEN_COLOURS
+from bimanualshift.core.colours import TRAIN_COLOURS, UNSEEN_COLOURS
 
 DETERMINERS = {"the", "a", "an", "both", "all", "each", "every", "two", "three", "four", "five", "some", "its",
                "their", "that", "this", "these", "those", "other"}

@@ -1,19 +1,12 @@
-"""Markdown tables generated from result files, spliced into README files between marker comments.
-
-`bimanualshift report` rewrites every block ``<!-- results:NAME -->`` ... ``<!-- /results:NAME -->`` with
-the table built from ``results/NAME/summary.json`` (or ``results/NAME.json``), so no number is typed.
-"""
+"""Every table the project prints or writes: markdown tables of result files (README blocks, table.md files) and
+the console tables of the commands."""
 
 from __future__ import annotations
 
-import json
-import re
-from pathlib import Path
 from typing import Any
 
-from bimanualshift.utils.io import atomic_write_text
-
-BLOCK = re.compile(r"(<!-- results:(?P<name>[\w/.-]+) -->\n)(?P<body>.*?)(<!-- /results:(?P=name) -->)", re.S)
+from rich.console import Console
+from rich.table import Table
 
 
 def success_table(result: dict[str, Any]) -> str:
@@ -131,8 +124,7 @@ def table_for(result: dict[str, Any]) -> str:
     """Expert measurements, success rates of methods, or a generic table of whatever the rows hold."""
     first = result["rows"][0] if result["rows"] else {}
     if result.get("bench"):
-        from bimanualshift.evaluation.bench import bench_table, stage_table
-        from bimanualshift.evaluation.targets import study_targets, targets_table
+        from bimanualshift.evaluation.targets import study_targets
 
         targets = study_targets(result.get("study", ""), result["rows"])  # derived from the rows, never stored alone
         parts = [bench_table(result["rows"]), stage_table(result["rows"]), targets_table(targets)]
@@ -150,56 +142,86 @@ def table_for(result: dict[str, Any]) -> str:
     return generic_table(result)
 
 
-def result_file(results_dir: Path, name: str) -> Path:
-    for candidate in (results_dir / name / "summary.json", results_dir / f"{name}.json"):
-        if candidate.is_file():
-            return candidate
-    raise FileNotFoundError(f"no result file for block {name!r} under {results_dir}")
+def stage_table(rows: list[dict[str, Any]]) -> str:
+    """Stage-wise success (Table III / Fig. 11b layout): one row per method and task, one column per stage."""
+    staged = [r for r in rows if r.get("stages")]
+    if not staged:
+        return ""
+    lines = []
+    for task in dict.fromkeys(r["task"] for r in staged):
+        mine = [r for r in staged if r["task"] == task]
+        names = [s["stage"] for s in mine[0]["stages"]]
+        lines += [f"**{task.replace('_', ' ')}: stage-wise success (%)**", "",
+                  "| method | " + " | ".join(names) + " |", "|---|" + "---|" * len(names)]
+        for r in mine:
+            extra = f" ({100 * r['degradation']:.0f} % degradation)" if "degradation" in r else ""
+            lines.append(f"| {row_label(r)}{extra} | " + " | ".join(f"{100 * s['success']:.0f}" for s in r["stages"])
+                         + " |")
+        lines.append("")
+    return "\n".join(lines)
 
 
-def render_readme(readme: str | Path, results_dir: str | Path = "results") -> list[str]:
-    """Regenerate every results block of ``readme``; returns the names of the blocks it rewrote."""
-    readme, results_dir = Path(readme), Path(results_dir)
-    text = readme.read_text()
-    names: list[str] = []
-
-    def replace(match: re.Match[str]) -> str:
-        name = match.group("name")
-        names.append(name)
-        table = table_for(json.loads(result_file(results_dir, name).read_text()))
-        return match.group(1) + table + match.group(4)
-
-    new = BLOCK.sub(replace, text)
-    if new != text:
-        atomic_write_text(readme, new)
-    return names
+def row_label(row: dict[str, Any]) -> str:
+    """The method, the study run it belongs to and the perturbation it was tested under, where there are some."""
+    return (row["method"] + (f" [{row['run']}]" if "run" in row else "")
+            + (f" ({row['perturbation']})" if "perturbation" in row else ""))
 
 
-def result_names(results_dir: str | Path) -> list[str]:
-    """Every result file under ``results_dir`` as a block name: ``NAME.json`` and ``NAME/summary.json`` (nested
-    study runs included, e.g. ``few_shot/demos_5``)."""
-    results_dir = Path(results_dir)
-    names = [p.stem for p in results_dir.glob("*.json")]
-    names += [str(p.parent.relative_to(results_dir)) for p in results_dir.rglob("summary.json")]
-    return sorted(set(names))
+def bench_table(rows: list[dict[str, Any]]) -> str:
+    """Table I's layout: one row per method (and perturbation), one column per task, then the average."""
+    tasks = list(dict.fromkeys(r["task"] for r in rows))
+    methods = list(dict.fromkeys(row_label(r) for r in rows))
+    cell = {(row_label(r), r["task"]): r for r in rows}
+    lines = ["| method | " + " | ".join(t.replace("_", " ") for t in tasks) + " |", "|---|" + "---|" * len(tasks)]
+    for method in methods:
+        cells = []
+        for task in tasks:
+            r = cell.get((method, task))
+            cells.append("–" if r is None else
+                         f"{100 * r['success']:.0f} ({100 * r['ci95'][0]:.0f}–{100 * r['ci95'][1]:.0f})")
+        lines.append(f"| {method} | " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
 
 
-def render_index(results_dir: str | Path = "results") -> Path:
-    """``results/README.md``: every result file's table with the command, seeds, commit and wall time that
-    produced it, regenerated from the files (each table is a results block, so `report` keeps it current)."""
-    results_dir = Path(results_dir)
-    parts = ["# Results", "",
-             "Every table below is generated from the result file it names by `bimanualshift report --index`;",
-             "each file records the command, seeds, commit, machine and wall time that produced it.", ""]
-    for name in result_names(results_dir):
-        path = result_file(results_dir, name)
-        try:
-            result = json.loads(path.read_text())
-            table = table_for(result)
-        except (KeyError, ValueError, IndexError, TypeError) as exc:
-            table = f"(not a results-envelope file: {exc!r})\n"
-        parts += [f"## {name}", "", f"`{path.relative_to(results_dir)}`", "",
-                  f"<!-- results:{name} -->", table.rstrip("\n"), f"<!-- /results:{name} -->", ""]
-    index = results_dir / "README.md"
-    atomic_write_text(index, "\n".join(parts))
-    return index
+def targets_table(targets: list[dict[str, Any]]) -> str:
+    if not targets:
+        return ""
+    verdict = {True: "met", False: "**missed**", None: "not measured"}
+    lines = ["| target | measured | |", "|---|---|---|"]
+    lines += [f"| {t['target']} | {t['measured']} | {verdict[t['met']]} |" for t in targets]
+    return "\n".join(lines) + "\n"
+
+
+def print_success_table(rows: list[dict[str, Any]], title: str) -> None:
+    table = Table(title=title)
+    for col in ("task", "method", "success", "95% CI", "episodes"):
+        table.add_column(col, justify="right" if col not in ("task", "method") else "left")
+    for r in rows:
+        table.add_row(r["task"], r["method"], f"{100 * r['success']:.1f} %",
+                      f"[{100 * r['ci95'][0]:.1f}, {100 * r['ci95'][1]:.1f}]", str(r["episodes"]))
+    Console().print(table)
+
+
+def print_projection_quality(rows: list[dict[str, Any]]) -> None:
+    table = Table(title="arm-conditioned projection: voxels kept (own arm + goal) / removed (other arm)")
+    for col in ("task", "segmenter", "arm", "kept", "removed", "keyframes"):
+        table.add_column(col)
+    for r in rows:
+        table.add_row(r["task"], r["segmenter"], r["arm"], f"{r['kept']:.3f}", f"{r['removed']:.3f}",
+                      str(r["keyframes"]))
+    Console().print(table)
+
+
+def print_prior_report(rows: list[dict[str, Any]], tasks: list[str], episodes: int) -> None:
+    table = Table(title=f"single-arm priors ({episodes} test seeds per task)")
+    table.add_column("task")
+    for row in rows:
+        table.add_column(row["prior"], justify="right")
+    for task in tasks:
+        table.add_row(task, *[f"{100 * r['tasks'][task]['success']:.0f} % "
+                              f"[{100 * r['tasks'][task]['ci95'][0]:.0f}, {100 * r['tasks'][task]['ci95'][1]:.0f}]"
+                              for r in rows])
+    table.add_row("mean", *[f"{100 * r['mean_success']:.1f} %" for r in rows])
+    table.add_row("parameters", *[f"{r['parameters']:,}" for r in rows])
+    table.add_row("ms per arm", *[f"{r['inference_ms_per_arm']}" for r in rows])
+    Console().print(table)

@@ -1,7 +1,7 @@
 import json
 from pathlib import Path
 
-from bimanualshift.evaluation.markdown import render_readme
+from bimanualshift.evaluation.readme import render_readme
 
 
 def test_results_block_is_generated_from_the_result_file(tmp_path: Path) -> None:
@@ -24,7 +24,7 @@ def test_results_block_is_generated_from_the_result_file(tmp_path: Path) -> None
 def test_expert_results_get_their_own_table(tmp_path) -> None:  # noqa: ANN001
     import json
 
-    from bimanualshift.evaluation.markdown import render_readme
+    from bimanualshift.evaluation.readme import render_readme
 
     (tmp_path / "results").mkdir()
     (tmp_path / "results" / "experts.json").write_text(json.dumps({
@@ -40,7 +40,7 @@ def test_expert_results_get_their_own_table(tmp_path) -> None:  # noqa: ANN001
 
 
 def test_other_results_get_a_table_of_their_scalar_fields() -> None:
-    from bimanualshift.evaluation.markdown import table_for
+    from bimanualshift.evaluation.tables import table_for
 
     table = table_for({
         "command": "python benchmarks/collection_speed.py", "commit": "abcdef0123456789", "created": "now",
@@ -59,7 +59,7 @@ META = {"command": "bimanualshift x", "commit": "abcdef0123456789", "created": "
 
 
 def test_projection_quality_puts_both_arms_on_one_line() -> None:
-    from bimanualshift.evaluation.markdown import table_for
+    from bimanualshift.evaluation.tables import table_for
 
     rows = [{"task": "lift_ball", "segmenter": s, "arm": a, "kept": k, "removed": r, "episodes": 50, "keyframes": 400}
             for s, a, k, r in [("simulator", "left", 0.991, 0.97), ("simulator", "right", 0.993, 0.965),
@@ -70,7 +70,7 @@ def test_projection_quality_puts_both_arms_on_one_line() -> None:
 
 
 def test_priors_table_has_one_column_per_prior() -> None:
-    from bimanualshift.evaluation.markdown import table_for
+    from bimanualshift.evaluation.tables import table_for
 
     def row(name: str, p: float) -> dict:
         return {"prior": name, "type": "peract", "mean_success": p, "parameters": 1234567,
@@ -86,7 +86,7 @@ def test_priors_table_has_one_column_per_prior() -> None:
 
 
 def test_index_lists_every_result_file_including_study_runs(tmp_path: Path) -> None:
-    from bimanualshift.evaluation.markdown import render_index
+    from bimanualshift.evaluation.readme import render_index
 
     envelope = {"command": "c", "commit": "abcdef1234567", "created": "t", "machine": "m", "seeds": {"test": [1]},
                 "wall_time_s": 60.0, "notes": "n"}
@@ -101,7 +101,7 @@ def test_index_lists_every_result_file_including_study_runs(tmp_path: Path) -> N
 
 
 def test_generic_table_gives_every_rows_fields_a_column() -> None:
-    from bimanualshift.evaluation.markdown import generic_table
+    from bimanualshift.evaluation.tables import generic_table
 
     result = {"rows": [{"what": "train", "seconds": 714.6}, {"what": "eval", "episodes_per_min": 5.0}],
               "command": "c", "commit": "0" * 40, "created": "t", "machine": "m", "wall_time_s": 60, "notes": "n"}
@@ -111,7 +111,7 @@ def test_generic_table_gives_every_rows_fields_a_column() -> None:
 
 
 def test_a_study_table_carries_its_targets_checked_on_its_rows() -> None:
-    from bimanualshift.evaluation.markdown import table_for
+    from bimanualshift.evaluation.tables import table_for
 
     rows = [{"task": t, "method": m, "demos": 30, "success": s, "episodes": 10, "ci95": [0.0, 1.0]}
             for m, s in (("bimanualshift", 0.2), ("no_residual", 0.4)) for t in ("a", "average")]

@@ -44,13 +44,13 @@ def test_experts_writes_a_result_file(tmp_path) -> None:  # noqa: ANN001
 
 
 def test_task_groups_resolve_to_registered_tasks() -> None:
-    from bimanualshift.cli import _resolve_tasks
+    from bimanualshift.cli.common import resolve_tasks
     from bimanualshift.sim.task import task_names
 
-    assert _resolve_tasks(["bimanual"]) == task_names(bimanual=True)
-    assert _resolve_tasks(["unimanual", "lift_ball"]) == [*task_names(bimanual=False), "lift_ball"]
+    assert resolve_tasks(["bimanual"]) == task_names(bimanual=True)
+    assert resolve_tasks(["unimanual", "lift_ball"]) == [*task_names(bimanual=False), "lift_ball"]
     with pytest.raises(SystemExit, match="all / bimanual / unimanual"):
-        _resolve_tasks(["bimanul"])
+        main(["experts", "--task", "bimanul", "--episodes", "1"])
 
 
 def test_video_records_the_expert(tmp_path) -> None:  # noqa: ANN001

@@ -1,6 +1,6 @@
 import pytest
 
-from bimanualshift.perception.goal_nouns import extract_goal_nouns, singular
+from bimanualshift.core.goal_nouns import extract_goal_nouns, singular
 
 
 @pytest.mark.parametrize(("instruction", "nouns"), [

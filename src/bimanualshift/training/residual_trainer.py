@@ -23,16 +23,16 @@ from bimanualshift.geometry.frames import rotation_difference
 from bimanualshift.memory.bank import MemoryBank, MemoryEntry
 from bimanualshift.memory.reference import REFERENCE_DIM, episode_key, reference_vector
 from bimanualshift.methods.bimanualshift import MEMORY_FILE, save_residual
-from bimanualshift.methods.stages import FrozenPriorStage
+from bimanualshift.methods.prior_step import FrozenPriorStage
+from bimanualshift.perception.arm_samples import ArmSamples, build_arm_samples
 from bimanualshift.perception.goal_geometry import GOAL_GEOMETRY_DIM, shift_goal_geometry
 from bimanualshift.priors.base import UnimanualPrior
 from bimanualshift.residual.manager import ResidualConfig, ResidualPolicy, manager_inputs, phase_one_hot
+from bimanualshift.residual.output_gate import choose_output_scale, reset_output_scale
 from bimanualshift.residual.skills import SkillBasis
 from bimanualshift.training.augment import random_shift, shift_voxels
 from bimanualshift.training.loop import run_training
 from bimanualshift.training.optim import make_lamb
-from bimanualshift.training.output_gate import choose_output_scale, reset_output_scale
-from bimanualshift.training.samples import ArmSamples, build_arm_samples
 from bimanualshift.utils.io import atomic_write_json
 
 ARM_ORDER = ("left", "right")  # the Manager's arm one-hot; single-arm data counts as "left"
@@ -71,7 +71,7 @@ class TrainConfig:
     prior_features: bool = False
     geometric_skip: bool = True  # a linear path from goal, proprio, prior action and phase into h
     # After training, scale the residual's translation and rotation by factors chosen on the validation demos
-    # (training/output_gate.py): the residual is turned down where the prior alone places keyframes better.
+    # (residual/output_gate.py): the residual is turned down where the prior alone places keyframes better.
     output_gate: bool = True
     augment_copies: int = 0  # shifted copies of every demo keyframe, each through the frozen prior
     augment_max_voxels: int = 2

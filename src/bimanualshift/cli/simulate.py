@@ -1,0 +1,141 @@
+"""Commands on the simulated tasks themselves: list them, collect demos, check the experts, pictures, videos."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Literal
+
+from bimanualshift.cli.common import command_line, resolve_tasks
+
+
+@dataclass
+class TasksArgs:
+    """List the registered tasks (your own too, with --plugin)."""
+
+
+def tasks(args: TasksArgs) -> None:
+    from bimanualshift.sim.task import TASKS, task_names
+
+    for name in task_names():
+        cls = TASKS[name]
+        print(f"{name:24s} {'bimanual' if cls.bimanual else 'single-arm':10s} {(cls.__doc__ or '').strip()}")
+
+
+@dataclass
+class CollectArgs:
+    task: list[str]  # task name(s), or all / bimanual / unimanual
+    episodes: int  # number of seeds to try per task
+    out: str  # output directory (one sub-folder per task)
+    split: Literal["train", "validation", "test"] = "train"  # seed range to draw from; the three never overlap
+    start: int = 0  # first seed offset within the split
+    workers: int = 1  # parallel worker processes
+    image_size: int = 128  # camera resolution
+    executor: Literal["local", "ray"] = "local"  # local worker processes, or Ray tasks on the cluster RAY_ADDRESS names
+
+
+def collect(args: CollectArgs) -> None:
+    from bimanualshift.data.collect import collect as collect_demos
+    from bimanualshift.data.seeds import split_seeds
+
+    names = resolve_tasks(args.task)
+    if args.episodes < 1:
+        raise ValueError("--episodes must be at least 1")
+    stats = collect_demos(names, split_seeds(args.split, args.episodes, args.start), args.out, workers=args.workers,
+                          image_size=args.image_size, executor=args.executor)
+    for task, s in stats.items():
+        print(f"{task}: {s['succeeded']}/{s['attempted']} expert episodes succeeded and were saved "
+              f"({s['skipped']} already present) under {Path(args.out) / task}")
+
+
+@dataclass
+class ExpertsArgs:
+    task: list[str] = field(default_factory=lambda: ["all"])  # task name(s), or all / bimanual / unimanual
+    episodes: int = 100  # seeds per task
+    workers: int = 1  # parallel worker processes
+    out: str = ""  # write a result JSON here (e.g. results/experts.json)
+    executor: Literal["local", "ray"] = "local"  # local worker processes, or Ray tasks on the cluster RAY_ADDRESS names
+
+
+def experts(args: ExpertsArgs) -> None:
+    from bimanualshift.data.seeds import split_seeds
+    from bimanualshift.evaluation.experts import expert_rows
+    from bimanualshift.evaluation.report import write_result
+    from bimanualshift.sim.expert_check import check_experts
+
+    names = resolve_tasks(args.task)
+    started = time.time()
+    seeds = split_seeds("test", args.episodes)
+    rows = expert_rows(names, check_experts(names, seeds, workers=args.workers, executor=args.executor))
+    for row in rows:
+        print(f"{row['task']:24s} {100 * row['success']:5.1f} %  "
+              f"({round(row['success'] * row['episodes'])}/{row['episodes']})  "
+              f"{row['mean_wall_time_s']:.1f} s/episode  {row['mean_keyframes']:.1f} keyframes")
+    if args.out:
+        write_result(args.out, command_line(), {"test": seeds}, started, rows,
+                     notes="scripted experts, no rendering; wall time per episode with "
+                           f"{args.workers} worker process(es) on this machine")
+        print(f"wrote {args.out}")
+
+
+@dataclass
+class SnapshotArgs:
+    task: list[str] = field(default_factory=lambda: ["all"])  # task name(s), or all / bimanual / unimanual
+    out: str = "docs/img/tasks"  # output folder
+    seed: int = 0
+    image_size: int = 256
+    cameras: list[str] = field(default_factory=lambda: ["front", "overhead"])
+    perturb: str = "none"  # a perturbation preset, e.g. lighting or swap_sides
+
+
+def snapshot(args: SnapshotArgs) -> None:
+    import imageio.v3 as iio
+    import numpy as np
+
+    from bimanualshift.sim.env import ManipulationEnv
+    from bimanualshift.sim.perturbations import preset
+
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    for task in resolve_tasks(args.task):
+        env = ManipulationEnv(task, image_size=args.image_size, perturbations=preset(args.perturb))
+        env.reset(seed=args.seed, options={"render": False})
+        views = env.cameras.render(env.data, depth_and_segmentation=False)
+        image = np.concatenate([views[c].rgb for c in args.cameras], axis=1)
+        path = out / f"{task}{'' if args.perturb == 'none' else '_' + args.perturb}.png"
+        iio.imwrite(path, image)
+        print(f"{path}: {env.task.instruction()!r}")
+        env.close()
+
+
+@dataclass
+class VideoArgs:
+    task: list[str] = field(default_factory=lambda: ["all"])  # task name(s), or all / bimanual / unimanual
+    out: str = "docs/videos"  # output folder
+    seed: int = 0
+    image_size: int = 192
+    cameras: list[str] = field(default_factory=lambda: ["front", "over_shoulder_left"])
+    every: int = 3  # control steps (50 ms each) per frame
+    fps: int = 13  # frames per second of the video
+    perturb: str = "none"  # a perturbation preset, e.g. lighting or swap_sides
+
+
+def video(args: VideoArgs) -> None:
+    from tqdm import tqdm
+
+    from bimanualshift.evaluation.media import write_video
+    from bimanualshift.sim.env import ManipulationEnv
+    from bimanualshift.sim.perturbations import preset
+
+    out = Path(args.out)
+    for task in tqdm(resolve_tasks(args.task), desc="video", unit="task"):
+        env = ManipulationEnv(task, image_size=args.image_size, perturbations=preset(args.perturb))
+        env.reset(seed=args.seed, options={"render": False})
+        env.start_video(tuple(args.cameras), every=args.every)
+        for keyframe in env.expert_keyframes():
+            env.step(env.action_from_keyframe(keyframe), render=False)
+        success = env.success()
+        path = write_video(out / f"{task}.mp4", env.video_frames(), fps=args.fps)
+        tqdm.write(f"{path}: {env.task.instruction()!r}, expert {'succeeded' if success else 'FAILED'}")
+        env.close()

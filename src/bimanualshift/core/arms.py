@@ -1,0 +1,4 @@
+"""Arm names, in the order every (arms, ...) array uses."""
+
+ARM_NAMES_BIMANUAL = ("left", "right")
+ARM_NAMES_UNIMANUAL = ("right",)

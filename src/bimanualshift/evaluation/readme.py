@@ -1,0 +1,89 @@
+"""README blocks regenerated from result files: tables spliced in between marker comments.
+
+`bimanualshift report` rewrites every block ``<!-- results:NAME -->`` ... ``<!-- /results:NAME -->`` with
+the table built from ``results/NAME/summary.json`` (or ``results/NAME.json``), so no number is typed.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+from bimanualshift.evaluation.tables import table_for
+from bimanualshift.utils.io import atomic_write_text
+
+BLOCK = re.compile(r"(<!-- results:(?P<name>[\w/.-]+) -->\n)(?P<body>.*?)(<!-- /results:(?P=name) -->)", re.S)
+
+
+
+
+
+
+
+
+
+
+
+
+
+
+
+
+
+
+
+
+def result_file(results_dir: Path, name: str) -> Path:
+    for candidate in (results_dir / name / "summary.json", results_dir / f"{name}.json"):
+        if candidate.is_file():
+            return candidate
+    raise FileNotFoundError(f"no result file for block {name!r} under {results_dir}")
+
+
+def render_readme(readme: str | Path, results_dir: str | Path = "results") -> list[str]:
+    """Regenerate every results block of ``readme``; returns the names of the blocks it rewrote."""
+    readme, results_dir = Path(readme), Path(results_dir)
+    text = readme.read_text()
+    names: list[str] = []
+
+    def replace(match: re.Match[str]) -> str:
+        name = match.group("name")
+        names.append(name)
+        table = table_for(json.loads(result_file(results_dir, name).read_text()))
+        return match.group(1) + table + match.group(4)
+
+    new = BLOCK.sub(replace, text)
+    if new != text:
+        atomic_write_text(readme, new)
+    return names
+
+
+def result_names(results_dir: str | Path) -> list[str]:
+    """Every result file under ``results_dir`` as a block name: ``NAME.json`` and ``NAME/summary.json`` (nested
+    study runs included, e.g. ``few_shot/demos_5``)."""
+    results_dir = Path(results_dir)
+    names = [p.stem for p in results_dir.glob("*.json")]
+    names += [str(p.parent.relative_to(results_dir)) for p in results_dir.rglob("summary.json")]
+    return sorted(set(names))
+
+
+def render_index(results_dir: str | Path = "results") -> Path:
+    """``results/README.md``: every result file's table with the command, seeds, commit and wall time that
+    produced it, regenerated from the files (each table is a results block, so `report` keeps it current)."""
+    results_dir = Path(results_dir)
+    parts = ["# Results", "",
+             "Every table below is generated from the result file it names by `bimanualshift report --index`;",
+             "each file records the command, seeds, commit, machine and wall time that produced it.", ""]
+    for name in result_names(results_dir):
+        path = result_file(results_dir, name)
+        try:
+            result = json.loads(path.read_text())
+            table = table_for(result)
+        except (KeyError, ValueError, IndexError, TypeError) as exc:
+            table = f"(not a results-envelope file: {exc!r})\n"
+        parts += [f"## {name}", "", f"`{path.relative_to(results_dir)}`", "",
+                  f"<!-- results:{name} -->", table.rstrip("\n"), f"<!-- /results:{name} -->", ""]
+    index = results_dir / "README.md"
+    atomic_write_text(index, "\n".join(parts))
+    return index

@@ -1,0 +1,77 @@
+"""Closed-loop episodes: a bimanual policy acting keyframe by keyframe in a task's environment."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+import numpy as np
+from tqdm import tqdm
+
+from bimanualshift.core.policy import Policy
+from bimanualshift.data.frames import KeyframeObservation, scene_of_env
+
+if TYPE_CHECKING:  # the loop only calls the env's methods; importing it would import robosuite
+    from bimanualshift.sim.env import ManipulationEnv
+
+# Every evaluated episode stops at this multiple of the scripted expert's keyframe count on the same seed (an
+# optional cap on top); the benchmark, `eval`, the prior report and the demo all use it.
+KEYFRAME_BUDGET = 2
+
+
+@dataclass
+class EpisodeRecord:
+    method: str
+    task: str
+    seed: int
+    success: bool
+    keyframes: int
+    instruction: str
+    frames: list[np.ndarray] = field(default_factory=list, repr=False)
+    stages_done: int = 0  # leading stages of a multi-stage task reached (``Task.stage_names``)
+
+
+def episode_budget(env: ManipulationEnv, seed: int, cap: int = 0) -> int:
+    """Keyframes an episode on ``seed`` may take: ``KEYFRAME_BUDGET`` x the expert's, at most ``cap`` (0: no cap)."""
+    env.reset(seed=seed, options={"render": False})
+    budget = KEYFRAME_BUDGET * len(env.expert_keyframes())
+    return min(budget, cap) if cap else budget
+
+
+# (keyframe index, observation) -> the (arms, 9) world-frame action executed; the default is ``policy.act``
+ActFn = Callable[[int, KeyframeObservation], np.ndarray]
+
+
+def rollout(env: ManipulationEnv, policy: Policy, seed: int, max_keyframes: int, record_camera: str | None = None,
+            act: ActFn | None = None) -> EpisodeRecord:
+    """One episode of at most ``max_keyframes``; ``act`` replaces the policy's own action (refinement uses it to
+    let the expert take over straying arms)."""
+    obs, _ = env.reset(seed=seed)
+    scene = scene_of_env(env)
+    policy.reset()
+    frames = [obs["cameras"][record_camera]["rgb"]] if record_camera else []
+    success, stages_done = False, 0
+    for k in range(max_keyframes):
+        frame = KeyframeObservation.from_env(obs, scene)
+        action = act(k, frame) if act is not None else policy.act(frame)
+        obs, _, success, truncated, info = env.step(action)
+        stages_done = int(info["stages_done"])
+        if record_camera:
+            frames.append(obs["cameras"][record_camera]["rgb"])
+        if success or truncated:
+            break
+    return EpisodeRecord(policy.name, env.task.name, seed, bool(success), env.keyframe_index,
+                         env.task.instruction(), frames, stages_done)
+
+
+def evaluate(env: ManipulationEnv, policy: Policy, seeds: list[int], max_keyframes: int = 0,
+             record_camera: str | None = None, record_episodes: int = 1) -> list[EpisodeRecord]:
+    """Episodes on ``seeds``, each within ``episode_budget`` (``max_keyframes`` caps it; 0: no cap)."""
+    records = []
+    bar = tqdm(seeds, desc=f"eval {policy.name}", unit="ep")
+    for i, seed in enumerate(bar):
+        budget = episode_budget(env, seed, max_keyframes)
+        records.append(rollout(env, policy, seed, budget, record_camera if i < record_episodes else None))
+        bar.set_postfix(success=f"{np.mean([r.success for r in records]):.2f}")
+    return records

@@ -1,0 +1,15 @@
+"""Where the table, the robot bases and the reachable workspace are (world frame, metres).
+
+Plain numbers, so task files, props and methods can read them without importing robosuite.
+"""
+
+import numpy as np
+
+TABLE_SIZE = (0.8, 1.6, 0.05)
+TABLE_TOP_Z = 0.8
+ROBOT_X = -0.16 - TABLE_SIZE[0] / 2  # robosuite's default base offset for a table
+BIMANUAL_ARM_Y = {"left": 0.3, "right": -0.3}  # the robot's left is +y when it faces +x
+UNIMANUAL_ARM_Y = {"right": 0.0}
+WORKSPACE_LOW = np.array([-0.55, -0.75, TABLE_TOP_Z - 0.02])
+WORKSPACE_HIGH = np.array([0.45, 0.75, TABLE_TOP_Z + 0.65])
+

@@ -1,0 +1,83 @@
+"""Reading the ``config.json`` and ``model.safetensors`` of a checkpoint with errors that name the file, the
+field, what was expected and how to fix it (instead of a library's bare message from deep inside)."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import types
+import typing
+from pathlib import Path
+from typing import Any
+
+
+class CheckpointError(ValueError):
+    """A checkpoint file that exists but cannot be used as it is."""
+
+
+def read_json_file(path: str | Path, what: str = "config") -> dict[str, Any]:
+    path = Path(path)
+    try:
+        raw = json.loads(path.read_text())
+    except json.JSONDecodeError as err:
+        raise CheckpointError(f"{path} is not valid JSON ({err.msg} at line {err.lineno}, column {err.colno}); "
+                              f"fix the file or re-save the {what}") from err
+    if not isinstance(raw, dict):
+        raise CheckpointError(f"{path} holds a {type(raw).__name__}, expected a JSON object of {what} fields")
+    return raw
+
+
+def _accepts(annotation: Any, value: Any) -> bool:
+    """Whether a JSON value fits a dataclass field's annotation (ints count as floats; lists as tuples)."""
+    origin = typing.get_origin(annotation)
+    if annotation is Any:
+        return True
+    if origin in (typing.Union, types.UnionType):
+        return any(_accepts(a, value) for a in typing.get_args(annotation))
+    if annotation is type(None):
+        return value is None
+    if origin in (tuple, list):
+        return isinstance(value, list | tuple)
+    if origin is dict:
+        return isinstance(value, dict)
+    if annotation is bool:
+        return isinstance(value, bool)
+    if annotation is int:
+        return isinstance(value, int) and not isinstance(value, bool)
+    if annotation is float:
+        return isinstance(value, int | float) and not isinstance(value, bool)
+    if isinstance(annotation, type):
+        return isinstance(value, annotation)
+    return True
+
+
+def config_from_dict(cls: type, raw: dict[str, Any], source: str | Path, ignore_unknown: bool = True) -> Any:
+    """An instance of dataclass ``cls`` from ``raw``, every value checked against its field's type; lists become
+    tuples where the field holds a tuple. ``source`` (the file) is named in every error."""
+    hints = typing.get_type_hints(cls)
+    names = {f.name for f in dataclasses.fields(cls) if f.init}
+    unknown = sorted(set(raw) - names)
+    if unknown and not ignore_unknown:
+        raise CheckpointError(f"{source}: unknown keys {unknown}; {cls.__name__} has {sorted(names)}")
+    values = {}
+    for key in names & set(raw):
+        value = raw[key]
+        if not _accepts(hints[key], value):
+            expected = getattr(hints[key], "__name__", str(hints[key]))
+            raise CheckpointError(f"{source}: field {key!r} is {value!r} ({type(value).__name__}), expected "
+                                  f"{expected}; correct it in that file (or re-save the checkpoint)")
+        values[key] = tuple(value) if isinstance(value, list) and typing.get_origin(hints[key]) is tuple else value
+    return cls(**values)
+
+
+def load_safetensors(path: str | Path) -> dict[str, Any]:
+    """The tensors of ``path``; a truncated or corrupt file is named with the fix."""
+    from safetensors import SafetensorError
+    from safetensors.torch import load_file
+
+    try:
+        return load_file(str(path))
+    except SafetensorError as err:
+        size = Path(path).stat().st_size
+        raise CheckpointError(f"{path} ({size:,} bytes) is not a readable safetensors file ({err}): it is probably "
+                              "truncated or corrupt; copy it again, or re-save the checkpoint") from err
