@@ -1,6 +1,7 @@
 """Typed options from the command line with ``tyro``: a dataclass's fields become ``--field-name`` flags, their
 comments the help. Two rules keep the flags every earlier command line used: booleans read ``true``/``false``
-(any case, or 1/0, yes/no; a bare ``--flag`` is true), and a plain ``dict`` field reads one JSON object (``--model '{"dim": 64}'``)."""
+(any case, or 1/0, yes/no; a bare ``--flag`` is true), and a plain ``dict`` field reads one JSON object
+(``--model '{"dim": 64}'``)."""
 
 from __future__ import annotations
 

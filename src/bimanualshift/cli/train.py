@@ -32,8 +32,10 @@ def refine(cfg: RefineConfig) -> None:
 
 @dataclass
 class ShipPriorArgs:
-    source: Annotated[str, tyro.conf.Positional, tyro.conf.arg(metavar="SOURCE")]  # the best/ folder of a `pretrain` run
-    name: Annotated[str, tyro.conf.Positional, tyro.conf.arg(metavar="NAME")]  # the name it loads by, e.g. peract_suite
+    # the best/ folder of a `pretrain` run
+    source: Annotated[str, tyro.conf.Positional, tyro.conf.arg(metavar="SOURCE")]
+    # the name it loads by, e.g. peract_suite
+    name: Annotated[str, tyro.conf.Positional, tyro.conf.arg(metavar="NAME")]
 
 
 def ship_prior(args: ShipPriorArgs) -> None:
