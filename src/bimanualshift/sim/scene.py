@@ -92,6 +92,8 @@ class RobosuiteScene(ManipulationEnv):
         for element in objects:
             if element.tag == "contact":  # pairs and excludes go to the model's own <contact> section
                 self.model.contact.extend(list(element))
+            elif element.tag == "asset":  # materials, textures and meshes the task's bodies use
+                self.model.asset.extend(list(element))
             else:
                 self.model.worldbody.append(element)
         lighten_visual_meshes(self.model.root)

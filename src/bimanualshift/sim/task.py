@@ -151,7 +151,8 @@ class Task(ABC):
     @abstractmethod
     def scene_xml(self) -> str:
         """MJCF bodies (as text) added under the world body; root body names become instance names.
-        A top-level ``<contact>`` element (pairs, excludes) is merged into the model's contact section."""
+        A top-level ``<contact>`` element (pairs, excludes) is merged into the model's contact section, and a
+        top-level ``<asset>`` element (materials, textures, meshes) into its assets."""
 
     @abstractmethod
     def initialize_episode(self, sim: SimHandle, rng: np.random.Generator) -> None:

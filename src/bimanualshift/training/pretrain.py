@@ -23,8 +23,8 @@ from bimanualshift.geometry.voxels import VoxelGrid
 from bimanualshift.perception.arm_samples import ArmSamples, action_chunks, build_arm_samples
 from bimanualshift.perception.observation import ArmObservationBuilder
 from bimanualshift.priors import UnimanualPrior
+from bimanualshift.priors.base import PRIORS, prior_type
 from bimanualshift.priors.base import build_prior as build_prior_network
-from bimanualshift.priors.base import prior_type
 from bimanualshift.sim.task import resolve_task_names, task_names
 from bimanualshift.training.augment import Se3Augmentation, transform_points, transform_quats, transform_voxels
 from bimanualshift.training.distributed import Distributed, init_distributed, loss_module
@@ -135,6 +135,10 @@ def seeds_tried(paths: list[Path]) -> int:
     return max(offsets) + 1 if offsets else 0
 
 
+def _first_line(doc: str | None) -> str:
+    return (doc or "").strip().split("\n")[0].rstrip(".")
+
+
 def model_card(cfg: PretrainConfig, kind: str, step: int, accuracy: float, train_episodes: int, val_episodes: int,
                wall_time_s: float, parameters: int, train_seeds: int = 0, val_seeds: int = 0) -> str:
     overrides = f" --model '{json.dumps(cfg.model)}'" if cfg.model else ""
@@ -154,7 +158,9 @@ def model_card(cfg: PretrainConfig, kind: str, step: int, accuracy: float, train
     what = {"peract": "voxels in the arm's base frame -> translation heat-map, Euler rotation bins, gripper and "
                       "collision (PerAct-style)",
             "diffusion": "the arm's voxels as a point cloud + proprioception + instruction -> a denoised chunk of "
-                         "keyframe actions (Diffusion Policy, DDPM training, DDIM inference)"}[kind]
+                         "keyframe actions (Diffusion Policy, DDPM training, DDIM inference)",
+            "act": "the arm's voxels as a point cloud + proprioception + instruction -> a chunk of keyframe actions "
+                   "from a CVAE transformer (ACT)"}.get(kind) or _first_line(PRIORS[kind].__doc__) or kind
     return f"""# Single-arm prior: {kind}
 
 A frozen unimanual prior for BimanualShift: {what}. Trained on **single-arm demonstrations only**.
