@@ -2,14 +2,12 @@
 
 from __future__ import annotations
 
-import json
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import torch
-from safetensors.torch import load_file, save_file
 
 from bimanualshift.data.frames import KeyframeObservation
 from bimanualshift.encoders.text import DEFAULT_SPEC, TextEncoder, default_text_encoder, make_text_encoder
@@ -18,9 +16,12 @@ from bimanualshift.memory.bank import MemoryBank, Retrieval
 from bimanualshift.memory.reference import episode_key, reference_vector
 from bimanualshift.methods.prior_step import ArmStep, FrozenPriorStage, world_action
 from bimanualshift.priors.base import UnimanualPrior
-from bimanualshift.residual.manager import ResidualConfig, ResidualPolicy, manager_inputs, phase_one_hot
-from bimanualshift.residual.skills import SkillBasis
-from bimanualshift.utils.io import atomic_write_json, atomic_writer
+from bimanualshift.residual.checkpoint import (
+    load_residual_checkpoint,
+    read_residual_config,
+    save_residual_checkpoint,
+)
+from bimanualshift.residual.manager import ResidualPolicy, manager_inputs, phase_one_hot
 
 MEMORY_FILE = "memory.safetensors"  # the frozen memory bank, beside the residual's weights
 
@@ -102,33 +103,24 @@ class ArmDecision:
 
 def save_residual(directory: str | Path, residual: ResidualPolicy, extra: dict[str, Any],
                   memory: MemoryBank | None = None) -> Path:
-    directory = Path(directory)
-    directory.mkdir(parents=True, exist_ok=True)
+    """The residual's checkpoint (``residual.checkpoint``) with the memory bank beside it."""
     if memory is not None:
-        memory.save(directory / MEMORY_FILE)
-    with atomic_writer(directory / "model.safetensors") as tmp:
-        save_file({k: v.detach().contiguous() for k, v in residual.state_dict().items()}, str(tmp))
-    config = {"type": "bimanualshift", "residual": asdict(residual.config), **extra}
-    atomic_write_json(directory / "config.json", config)
-    return directory
+        Path(directory).mkdir(parents=True, exist_ok=True)
+        memory.save(Path(directory) / MEMORY_FILE)
+    return save_residual_checkpoint(directory, residual, extra)
 
 
 def load_bimanualshift(directory: str | Path, text_encoder: TextEncoder | None = None) -> BimanualShift:
     """A trained (or refined) BimanualShift; ``text_encoder`` is the prior's (default: the bundled MiniLM it is
     pretrained with), the residual's comes from the checkpoint's ``text_encoder`` spec."""
     directory = Path(directory)
-    if not (directory / "config.json").is_file():
-        raise FileNotFoundError(f"no BimanualShift checkpoint at {directory} (config.json missing); train one with "
-                                "`bimanualshift train`")
-    cfg = json.loads((directory / "config.json").read_text())
+    cfg, rcfg = read_residual_config(directory)
     prior = UnimanualPrior.from_pretrained(cfg["prior"])
     text_encoder = text_encoder or default_text_encoder()
     spec = cfg.get("text_encoder", DEFAULT_SPEC)
     # Older checkpoints recorded the bundled model's folder instead of a spec.
     residual_encoder = make_text_encoder(spec) if spec.partition(":")[0] in ("minilm", "clip", "st") else text_encoder
-    rcfg = ResidualConfig(**cfg["residual"])
-    residual = ResidualPolicy(rcfg, SkillBasis(rcfg.num_skills, residual_encoder.dim))
-    residual.load_state_dict(load_file(str(directory / "model.safetensors")))
+    _, residual = load_residual_checkpoint(directory, residual_encoder.dim)
     memory = MemoryBank.load(directory / MEMORY_FILE) if rcfg.reference_dim > 0 else None
     stage = FrozenPriorStage(prior, text_encoder, use_projection=cfg.get("use_projection", True),
                              locate_goal=rcfg.goal_dim > 0,

@@ -13,8 +13,10 @@ from pathlib import Path
 from typing import Any
 
 import torch
-from safetensors.torch import load_file, save_file
+from safetensors.torch import save_file
 from torch import nn
+
+from bimanualshift.utils.config_files import load_safetensors
 
 
 def _optimizer_to_tensors(optimizer: torch.optim.Optimizer) -> tuple[dict[str, torch.Tensor], dict[str, Any]]:
@@ -73,10 +75,10 @@ def load_checkpoint(path: str | Path, model: nn.Module, optimizer: torch.optim.O
     for name in ("model.safetensors", "optimizer.safetensors", "state.json"):
         if not (path / name).is_file():
             raise FileNotFoundError(f"checkpoint {path} is incomplete: {name} is missing")
-    model.load_state_dict(load_file(str(path / "model.safetensors")))
+    model.load_state_dict(load_safetensors(path / "model.safetensors"))
     state = json.loads((path / "state.json").read_text())
     if optimizer is not None:
-        tensors = {k: v for k, v in load_file(str(path / "optimizer.safetensors")).items() if k != "_empty"}
+        tensors = {k: v for k, v in load_safetensors(path / "optimizer.safetensors").items() if k != "_empty"}
         _optimizer_from_tensors(optimizer, tensors, state["optimizer"])
     torch.set_rng_state(torch.tensor(state["torch_rng"], dtype=torch.uint8))
     return state

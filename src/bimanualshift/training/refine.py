@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 import torch
 from safetensors import safe_open
-from safetensors.torch import load_file, save_file
+from safetensors.torch import save_file
 from tqdm import tqdm
 
 from bimanualshift.data.episode import list_episodes
@@ -41,6 +41,7 @@ from bimanualshift.sim.env import ManipulationEnv
 from bimanualshift.training.loop import run_training
 from bimanualshift.training.optim import make_lamb
 from bimanualshift.training.residual_trainer import ResidualData, bc_loss, residual_data
+from bimanualshift.utils.config_files import load_safetensors, read_json_file
 from bimanualshift.utils.io import atomic_write_json, atomic_writer
 
 
@@ -172,7 +173,7 @@ def load_scenes(paths: list[Path]) -> tuple[list[dict], ResidualData | None, lis
         with safe_open(str(path), framework="pt") as f:
             record = json.loads(f.metadata()["record"])
             names = set(f.keys())
-        tensors = load_file(str(path))
+        tensors = load_safetensors(path)
         records.append(record)
         if record["corrections"]:
             parts.append((tensors["inputs"], tensors["translation"], tensors["rotation"]))
@@ -192,7 +193,7 @@ def refine(cfg: RefineConfig, text_encoder: TextEncoder | None = None) -> Path:
     checkpoint = Path(cfg.checkpoint)
     if not (checkpoint / "config.json").is_file():
         raise FileNotFoundError(f"no BimanualShift checkpoint at {checkpoint}; train one with `bimanualshift train`")
-    meta = json.loads((checkpoint / "config.json").read_text())
+    meta = read_json_file(checkpoint / "config.json")
     train_cfg = meta.get("train_config")
     if not train_cfg:
         raise ValueError(f"{checkpoint}/config.json has no train_config; re-train it with this version of "
@@ -251,10 +252,10 @@ def refine(cfg: RefineConfig, text_encoder: TextEncoder | None = None) -> Path:
                           validate, on_best, desc="refine residual")
     gate = {}
     if residual.config.output_gate and (out / "best" / "model.safetensors").is_file():
-        residual.load_state_dict(load_file(str(out / "best" / "model.safetensors")))
+        residual.load_state_dict(load_safetensors(out / "best" / "model.safetensors"))
         reset_output_scale(residual)
         gate = {"output_gate": choose_output_scale(residual, val.inputs, val.translation, val.rotation)}
-        best = json.loads((out / "best" / "config.json").read_text())
+        best = read_json_file(out / "best" / "config.json")
         save_residual(out / "best", residual, {**{k: v for k, v in best.items() if k not in ("type", "residual")},
                                                "output_scale": gate["output_gate"]}, memory)
     summary = {

@@ -14,7 +14,6 @@ from pathlib import Path
 
 import numpy as np
 import torch
-from safetensors.torch import load_file
 
 from bimanualshift.configs import RESIDUAL_STEPS
 from bimanualshift.data.episode import list_episodes
@@ -33,6 +32,7 @@ from bimanualshift.residual.skills import SkillBasis
 from bimanualshift.training.augment import random_shift, shift_voxels
 from bimanualshift.training.loop import run_training
 from bimanualshift.training.optim import make_lamb
+from bimanualshift.utils.config_files import load_safetensors, read_json_file
 from bimanualshift.utils.io import atomic_write_json
 
 ARM_ORDER = ("left", "right")  # the Manager's arm one-hot; single-arm data counts as "left"
@@ -234,12 +234,12 @@ def load_earlier(init_from: str, rcfg: ResidualConfig, retrieval: bool
                  ) -> tuple[dict[str, torch.Tensor], MemoryBank | None]:
     """An earlier run's residual weights (checked against this run's shapes) and, with retrieval, its bank."""
     checkpoint = earlier_checkpoint(init_from)
-    earlier = json.loads((checkpoint / "config.json").read_text())
+    earlier = read_json_file(checkpoint / "config.json")
     if earlier.get("residual") != asdict(rcfg):
         raise ValueError(f"init_from={init_from!r} has residual config {earlier.get('residual')}, this run needs "
                          f"{asdict(rcfg)}; continue from a run with the same prior, text encoder and switches")
     memory = MemoryBank.load(checkpoint / MEMORY_FILE) if retrieval and (checkpoint / MEMORY_FILE).is_file() else None
-    return load_file(str(checkpoint / "model.safetensors")), memory
+    return load_safetensors(checkpoint / "model.safetensors"), memory
 
 
 def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Path:
@@ -301,7 +301,7 @@ def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Pat
     result = run_training(out, residual, optimizer, cfg.steps, step_fn, cfg.seed, cfg.checkpoint_every,
                           validate, on_best, desc="train residual")
     if (out / "best" / "model.safetensors").is_file():  # report on the checkpoint the run hands on
-        residual.load_state_dict(load_file(str(out / "best" / "model.safetensors")))
+        residual.load_state_dict(load_safetensors(out / "best" / "model.safetensors"))
     gate = {}
     if rcfg.output_gate:
         reset_output_scale(residual)

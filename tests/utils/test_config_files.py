@@ -1,0 +1,50 @@
+"""Loading names the file, the field, what was expected and the fix (never a library's bare message)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from bimanualshift.priors.base import UnimanualPrior, build_prior
+from bimanualshift.utils.config_files import CheckpointError
+
+
+@pytest.fixture
+def prior_dir(tmp_path: Path) -> Path:
+    return build_prior("peract", "debug").save_pretrained(tmp_path / "prior")
+
+
+def test_a_truncated_weights_file_is_named_with_the_fix(prior_dir: Path) -> None:
+    weights = prior_dir / "model.safetensors"
+    weights.write_bytes(weights.read_bytes()[:5])
+    with pytest.raises(CheckpointError, match=rf"{weights} \(5 bytes\) is not a readable safetensors file.*truncated"):
+        UnimanualPrior.from_pretrained(prior_dir)
+
+
+def test_a_config_value_of_the_wrong_type_names_the_file_and_field(prior_dir: Path) -> None:
+    path = prior_dir / "config.json"
+    path.write_text(json.dumps({**json.loads(path.read_text()), "dim": "abc"}))
+    with pytest.raises(CheckpointError, match=rf"{path}: field 'dim' is 'abc' \(str\), expected int; correct it"):
+        UnimanualPrior.from_pretrained(prior_dir)
+
+
+def test_a_config_that_is_not_json_is_named(prior_dir: Path) -> None:
+    path = prior_dir / "config.json"
+    path.write_text('{"type": "peract",')
+    with pytest.raises(CheckpointError, match=rf"{path} is not valid JSON"):
+        UnimanualPrior.from_pretrained(prior_dir)
+
+
+def test_the_command_line_prints_one_error_line_and_exits_2(prior_dir: Path,
+                                                            capsys: pytest.CaptureFixture[str]) -> None:
+    from bimanualshift.cli import main
+
+    (prior_dir / "model.safetensors").write_bytes(b"\x00" * 3)
+    with pytest.raises(SystemExit) as exc:
+        main(["eval", "--method", "prior", "--prior", str(prior_dir), "--task", "push_button", "--episodes", "1"])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    errors = [line for line in err.splitlines() if line.startswith("error: ")]
+    assert len(errors) == 1 and "model.safetensors" in errors[0] and "Traceback" not in err
