@@ -30,7 +30,7 @@ from bimanualshift.memory.bank import MemoryBank, MemoryEntry, memory_key
 from bimanualshift.memory.reference import REFERENCE_DIM
 from bimanualshift.methods.bimanualshift import BimanualShift
 from bimanualshift.methods.frozen_prior import FrozenPriorPerArm
-from bimanualshift.methods.prior_step import FrozenPriorStage
+from bimanualshift.methods.prior_step import FrozenPriorStep
 from bimanualshift.priors import PRIORS, UnimanualPrior
 from bimanualshift.residual.manager import ResidualConfig, ResidualPolicy
 from bimanualshift.residual.skills import SkillBasis
@@ -85,7 +85,7 @@ def main() -> None:
     started = time.time()
     text_encoder = default_text_encoder()
     prior = UnimanualPrior.from_pretrained(args.prior)
-    stage = FrozenPriorStage(prior, text_encoder)
+    prior_step = FrozenPriorStep(prior, text_encoder)
     seed = split_seeds("test", 1)[0]
     env = ManipulationEnv(args.task)
     obs, _ = env.reset(seed=seed)
@@ -97,8 +97,8 @@ def main() -> None:
     memory = random_bank(1000, key_dim, rng)
     rcfg = ResidualConfig(feature_dim=prior.feature_dim, text_dim=text_encoder.dim, reference_dim=REFERENCE_DIM)
     residual = ResidualPolicy(rcfg, SkillBasis.from_verbs(text_encoder))
-    full = BimanualShift(stage, residual, memory)
-    alone = FrozenPriorPerArm(stage)
+    full = BimanualShift(prior_step, residual, memory)
+    alone = FrozenPriorPerArm(prior_step)
 
     def full_step() -> None:
         full.reset()  # retrieval included in every timed call

@@ -22,11 +22,11 @@ from tqdm import tqdm
 from bimanualshift.data.episode import list_episodes
 from bimanualshift.evaluation.report import write_result
 from bimanualshift.geometry.voxels import VoxelGrid
+from bimanualshift.perception.arm_samples import build_arm_samples
 from bimanualshift.perception.observation import ArmObservationBuilder
 from bimanualshift.priors import UnimanualPrior
 from bimanualshift.sim.task import resolve_task_names
 from bimanualshift.training.pretrain import PriorBatches
-from bimanualshift.perception.arm_samples import build_arm_samples
 
 
 def keyframe_errors(model: UnimanualPrior, batches: PriorBatches) -> tuple[np.ndarray, np.ndarray]:

@@ -92,7 +92,7 @@ def test_missing_weights_give_a_clear_error(tmp_path: Path) -> None:
 
 def test_training_config_points_the_projection_at_local_weights(tiny_models: tuple[Path, Path]) -> None:
     from bimanualshift.encoders.text import default_text_encoder
-    from bimanualshift.methods.prior_step import FrozenPriorStage
+    from bimanualshift.methods.prior_step import FrozenPriorStep
     from bimanualshift.perception.segmenters.grounded_sam import GroundedSamSegmenter
     from bimanualshift.priors.peract.configuration_peract import PerActConfig
     from bimanualshift.priors.peract.modeling_peract import PerActPrior
@@ -103,7 +103,7 @@ def test_training_config_points_the_projection_at_local_weights(tiny_models: tup
     assert options == {"detector": str(detector), "sam": str(sam)} and segmenter_options("", "") == {}
     prior = PerActPrior(PerActConfig(voxel_size=16, patch_size=4, dim=32, num_latents=8, self_attention_layers=1,
                                      heads=2))
-    stage = FrozenPriorStage(prior, default_text_encoder(), segmenter="grounded_sam", segmenter_options=options)
-    segmenter = stage.builder.projection.segmenter
+    prior_step = FrozenPriorStep(prior, default_text_encoder(), segmenter="grounded_sam", segmenter_options=options)
+    segmenter = prior_step.builder.projection.segmenter
     assert isinstance(segmenter, GroundedSamSegmenter)
     assert segmenter.config.detector == str(detector) and segmenter.config.sam == str(sam)

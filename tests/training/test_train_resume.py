@@ -185,9 +185,9 @@ def test_without_residual_ablation_keeps_the_projection(tiny_prior: Path) -> Non
     encoder = default_text_encoder()
     baseline = FrozenPriorPerArm.from_pretrained(str(tiny_prior), encoder)
     # Named as the benchmark names it, so the demo's table cannot be read as the fine-tuned PerAct-LF.
-    assert baseline.stage.builder.projection is None and baseline.name == "frozen_prior_per_arm"
+    assert baseline.prior_step.builder.projection is None and baseline.name == "frozen_prior_per_arm"
     ablation = FrozenPriorPerArm.from_pretrained(str(tiny_prior), encoder, "no_residual", use_projection=True)
-    assert ablation.stage.builder.projection is not None and ablation.name == "no_residual"
+    assert ablation.prior_step.builder.projection is not None and ablation.name == "no_residual"
 
 
 def test_residual_with_a_clip_text_encoder_trains_and_reloads(demo_root: Path, tiny_prior: Path, tmp_path: Path
@@ -201,7 +201,7 @@ def test_residual_with_a_clip_text_encoder_trains_and_reloads(demo_root: Path, t
     policy = load_bimanualshift(best)
     # The skill basis, the Manager's instruction input and the memory keys use CLIP; the prior keeps MiniLM.
     assert policy.text_encoder.dim == 16 and policy.residual.config.text_dim == 16
-    assert policy.residual.basis.z.shape[1] == 16 and policy.stage.text_encoder.dim == 384
+    assert policy.residual.basis.z.shape[1] == 16 and policy.prior_step.text_encoder.dim == 384
     env = ManipulationEnv("push_two_buttons", image_size=64)
     try:
         assert rollout(env, policy, seed=200_000, max_keyframes=1).keyframes == 1

@@ -3,9 +3,10 @@
 from __future__ import annotations
 
 import time
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Literal
+from typing import Any, Literal
 
 from bimanualshift.cli.common import command_line, resolve_tasks
 
@@ -80,62 +81,67 @@ def experts(args: ExpertsArgs) -> None:
 
 
 @dataclass
-class SnapshotArgs:
+class SceneArgs:
+    """Which first scenes to show: the tasks, the seed and a perturbation preset."""
+
     task: list[str] = field(default_factory=lambda: ["all"])  # task name(s), or all / bimanual / unimanual
-    out: str = "docs/img/tasks"  # output folder
     seed: int = 0
+    perturb: str = "none"  # a perturbation preset, e.g. lighting or swap_sides
+
+
+@dataclass
+class SnapshotArgs(SceneArgs):
+    out: str = "docs/img/tasks"  # output folder
     image_size: int = 256
     cameras: list[str] = field(default_factory=lambda: ["front", "overhead"])
-    perturb: str = "none"  # a perturbation preset, e.g. lighting or swap_sides
+
+
+def _first_scenes(tasks: Iterable[str], image_size: int, perturb: str, seed: int) -> Iterator[tuple[str, Any]]:
+    """(task, its env reset to ``seed`` without rendering), one task at a time; each env is closed after use."""
+    from bimanualshift.sim.env import ManipulationEnv
+    from bimanualshift.sim.perturbations import preset
+
+    for task in tasks:
+        env = ManipulationEnv(task, image_size=image_size, perturbations=preset(perturb))
+        env.reset(seed=seed, options={"render": False})
+        yield task, env
+        env.close()
 
 
 def snapshot(args: SnapshotArgs) -> None:
     import imageio.v3 as iio
     import numpy as np
 
-    from bimanualshift.sim.env import ManipulationEnv
-    from bimanualshift.sim.perturbations import preset
-
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    for task in resolve_tasks(args.task):
-        env = ManipulationEnv(task, image_size=args.image_size, perturbations=preset(args.perturb))
-        env.reset(seed=args.seed, options={"render": False})
+    for task, env in _first_scenes(resolve_tasks(args.task), args.image_size, args.perturb, args.seed):
         views = env.cameras.render(env.data, depth_and_segmentation=False)
         image = np.concatenate([views[c].rgb for c in args.cameras], axis=1)
         path = out / f"{task}{'' if args.perturb == 'none' else '_' + args.perturb}.png"
         iio.imwrite(path, image)
         print(f"{path}: {env.task.instruction()!r}")
-        env.close()
 
 
 @dataclass
-class VideoArgs:
-    task: list[str] = field(default_factory=lambda: ["all"])  # task name(s), or all / bimanual / unimanual
+class VideoArgs(SceneArgs):
     out: str = "docs/videos"  # output folder
-    seed: int = 0
     image_size: int = 192
     cameras: list[str] = field(default_factory=lambda: ["front", "over_shoulder_left"])
     every: int = 3  # control steps (50 ms each) per frame
     fps: int = 13  # frames per second of the video
-    perturb: str = "none"  # a perturbation preset, e.g. lighting or swap_sides
 
 
 def video(args: VideoArgs) -> None:
     from tqdm import tqdm
 
     from bimanualshift.evaluation.media import write_video
-    from bimanualshift.sim.env import ManipulationEnv
-    from bimanualshift.sim.perturbations import preset
 
     out = Path(args.out)
-    for task in tqdm(resolve_tasks(args.task), desc="video", unit="task"):
-        env = ManipulationEnv(task, image_size=args.image_size, perturbations=preset(args.perturb))
-        env.reset(seed=args.seed, options={"render": False})
+    tasks = tqdm(resolve_tasks(args.task), desc="video", unit="task")
+    for task, env in _first_scenes(tasks, args.image_size, args.perturb, args.seed):
         env.start_video(tuple(args.cameras), every=args.every)
         for keyframe in env.expert_keyframes():
             env.step(env.action_from_keyframe(keyframe), render=False)
         success = env.success()
         path = write_video(out / f"{task}.mp4", env.video_frames(), fps=args.fps)
         tqdm.write(f"{path}: {env.task.instruction()!r}, expert {'succeeded' if success else 'FAILED'}")
-        env.close()

@@ -78,20 +78,20 @@ def inference_ms(prior: str, task: str, seed: int, calls: int = 20, threads: int
 
     torch.set_num_threads(threads)
     policy = _policy(prior)
-    stage = policy.stage
+    prior_step = policy.prior_step
     env = cached_env(task)
     obs, _ = env.reset(seed=seed)
     frame = KeyframeObservation.from_env(obs, scene_of_env(env))
-    per_arm = stage.builder.build(frame)
+    per_arm = prior_step.builder.build(frame)
     arm = frame.scene.arm_names[0]
     voxels = torch.as_tensor(per_arm[arm].voxels)[None]
     proprio = torch.as_tensor(np.r_[per_arm[arm].proprio, 0.0].astype(np.float32))[None]
-    text = stage.text(frame.instruction)
-    stage.prior.predict(voxels, proprio, text)  # warm-up
+    text = prior_step.text(frame.instruction)
+    prior_step.prior.predict(voxels, proprio, text)  # warm-up
     times = []
     for _ in range(calls):
         t0 = time.perf_counter()
-        stage.prior.predict(voxels, proprio, text)
+        prior_step.prior.predict(voxels, proprio, text)
         times.append(1000 * (time.perf_counter() - t0))
     return float(np.median(times))
 
@@ -103,7 +103,7 @@ def prior_rows(priors: list[str], episodes: list[PriorEpisode], tasks: list[str]
     for prior in priors:
         path = resolve_prior_path(prior)
         config = json.loads((Path(path) / "config.json").read_text())
-        model = _policy(prior).stage.prior
+        model = _policy(prior).prior_step.prior
         per_task = {}
         for task in tasks:
             mine = [e for e in episodes if e.prior == prior and e.task == task]

@@ -12,7 +12,7 @@ import json
 import shlex
 import sys
 import time
-from dataclasses import asdict, replace
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -20,6 +20,7 @@ from bimanualshift.evaluation.bench import BenchConfig, average_row, run_bench
 from bimanualshift.evaluation.plots import draw_plots
 from bimanualshift.evaluation.tables import bench_table, stage_table, targets_table
 from bimanualshift.evaluation.targets import study_targets
+from bimanualshift.sim.perturbations import PRESETS
 from bimanualshift.utils.io import atomic_write_text
 
 BASELINES = ["bimanualshift", "peract_lf", "dp_lf", "scratch_voxel", "scratch_dp", "scratch_act", "anybimanual"]
@@ -30,46 +31,56 @@ TABLE1_TASKS = ("take_tray_out_of_oven", "straighten_rope", "sweep_to_dustpan", 
 TABLE1 = "all tasks"  # both halves of Table I share one label: one row per method over the six tasks
 
 
-def study_runs(name: str, root: str = "results") -> list[tuple[str, BenchConfig]]:
-    """(label, config) of every benchmark run of a study."""
-    out = f"{root}/{name}"
-    if name == "table1":  # Table I: the complex tasks at 30 demos, the simpler ones at 100; one row per method
-        # (folders are named by their tasks, not their demos: `--demos` overrides both halves)
-        methods = BASELINES + ABLATIONS
-        return [
-            (TABLE1, BenchConfig(tasks=list(TABLE1_TASKS[:3]), demos=30, methods=methods, out=f"{out}/complex_tasks",
-                                 runs="runs/table1")),
-            (TABLE1, BenchConfig(tasks=list(TABLE1_TASKS[3:]), demos=100,
-                                 methods=methods, out=f"{out}/simpler_tasks", runs="runs/table1")),
-        ]
-    if name == "few_shot":  # Fig. 11a: 5 / 15 / 30 demos
-        return [(f"{n} demos", BenchConfig(tasks=FEW_SHOT_TASKS, demos=n, methods=["bimanualshift", "peract_lf"],
-                                           out=f"{out}/demos_{n}", runs=f"runs/few_shot_{n}"))
-                for n in (5, 15, 30)]
-    if name == "generalisation":  # Table III: the seven perturbations on one task (overall success)
-        from bimanualshift.sim.perturbations import PRESETS
+@dataclass(frozen=True)
+class Study:
+    """A named study: its benchmark runs as (label, config), ``out`` relative to the results folder."""
 
-        return [("perturbations", BenchConfig(tasks=["take_tray_out_of_oven"], demos=30,
-                                              methods=["bimanualshift", "peract_lf"],
-                                              perturbations=list(PRESETS), out=f"{out}/perturbations",
-                                              runs="runs/generalisation"))]
-    if name == "long_horizon":  # Fig. 11b: two tasks learnt in turn, then a four-stage composite from 5 demos
-        methods = ["bimanualshift", "no_retrieval", "peract_lf"]
-        runs = "runs/long_horizon"
-        return [
-            ("task 1", BenchConfig(tasks=["push_two_buttons"], demos=30, methods=methods, episodes=20,
-                                   out=f"{out}/task1", runs=f"{runs}/task1")),
-            ("task 2", BenchConfig(tasks=["lift_ball"], demos=30, methods=methods, episodes=20, out=f"{out}/task2",
-                                   runs=f"{runs}/task2", continue_from=f"{runs}/task1/push_two_buttons")),
-            ("composite", BenchConfig(tasks=["buttons_then_lift_ball"], demos=5, methods=methods,
-                                      out=f"{out}/composite", runs=f"{runs}/composite",
-                                      continue_from=f"{runs}/task2/lift_ball")),
-        ]
-    if name == "backbones":  # Table II: the method over each shipped prior
-        return [(f"prior {prior}", BenchConfig(tasks=list(TABLE1_TASKS), demos=30, methods=["bimanualshift"],
-                                               prior=prior, out=f"{out}/{prior}", runs=f"runs/backbones_{prior}"))
-                for prior in ("peract_suite", "dp_suite")]
-    raise ValueError(f"unknown study {name!r}; choose from {STUDIES}")
+    name: str
+    about: str
+    runs: tuple[tuple[str, BenchConfig], ...]
+
+
+LONG_HORIZON_METHODS = ["bimanualshift", "no_retrieval", "peract_lf"]
+LONG_HORIZON_RUNS = "runs/long_horizon"
+
+# Every study, by name (openpi's named-config table): `bimanualshift study NAME` runs one.
+_STUDIES = [
+    Study("table1", "Table I: the complex tasks at 30 demos, the simpler ones at 100; one row per method (folders "
+          "are named by their tasks, not their demos: `--demos` overrides both halves)", (
+              (TABLE1, BenchConfig(tasks=list(TABLE1_TASKS[:3]), demos=30, methods=BASELINES + ABLATIONS,
+                                   out="table1/complex_tasks", runs="runs/table1")),
+              (TABLE1, BenchConfig(tasks=list(TABLE1_TASKS[3:]), demos=100, methods=BASELINES + ABLATIONS,
+                                   out="table1/simpler_tasks", runs="runs/table1")))),
+    Study("few_shot", "Fig. 11a: 5 / 15 / 30 demos", tuple(
+        (f"{n} demos", BenchConfig(tasks=FEW_SHOT_TASKS, demos=n, methods=["bimanualshift", "peract_lf"],
+                                   out=f"few_shot/demos_{n}", runs=f"runs/few_shot_{n}")) for n in (5, 15, 30))),
+    Study("generalisation", "Table III: the seven perturbations on one task (overall success)", (
+        ("perturbations", BenchConfig(tasks=["take_tray_out_of_oven"], demos=30, methods=["bimanualshift", "peract_lf"],
+                                      perturbations=list(PRESETS), out="generalisation/perturbations",
+                                      runs="runs/generalisation")),)),
+    Study("long_horizon", "Fig. 11b: two tasks learnt in turn, then a four-stage composite from 5 demos", (
+        ("task 1", BenchConfig(tasks=["push_two_buttons"], demos=30, methods=LONG_HORIZON_METHODS, episodes=20,
+                               out="long_horizon/task1", runs=f"{LONG_HORIZON_RUNS}/task1")),
+        ("task 2", BenchConfig(tasks=["lift_ball"], demos=30, methods=LONG_HORIZON_METHODS, episodes=20,
+                               out="long_horizon/task2", runs=f"{LONG_HORIZON_RUNS}/task2",
+                               continue_from=f"{LONG_HORIZON_RUNS}/task1/push_two_buttons")),
+        ("composite", BenchConfig(tasks=["buttons_then_lift_ball"], demos=5, methods=LONG_HORIZON_METHODS,
+                                  out="long_horizon/composite", runs=f"{LONG_HORIZON_RUNS}/composite",
+                                  continue_from=f"{LONG_HORIZON_RUNS}/task2/lift_ball")))),
+    Study("backbones", "Table II: the method over each shipped prior", tuple(
+        (f"prior {prior}", BenchConfig(tasks=list(TABLE1_TASKS), demos=30, methods=["bimanualshift"], prior=prior,
+                                       out=f"backbones/{prior}", runs=f"runs/backbones_{prior}"))
+        for prior in ("peract_suite", "dp_suite"))),
+]
+STUDY_TABLE = {s.name: s for s in _STUDIES}
+STUDIES = tuple(STUDY_TABLE)
+
+
+def study_runs(name: str, root: str = "results") -> list[tuple[str, BenchConfig]]:
+    """(label, config) of every benchmark run of a study, its folders under ``root``."""
+    if name not in STUDY_TABLE:
+        raise ValueError(f"unknown study {name!r}; choose from {STUDIES}")
+    return [(label, replace(cfg, out=f"{root}/{cfg.out}")) for label, cfg in STUDY_TABLE[name].runs]
 
 
 def combined_rows(runs: list[tuple[str, list[dict[str, Any]]]]) -> list[dict[str, Any]]:
@@ -104,8 +115,6 @@ def study_plan(name: str, overrides: dict[str, Any] | None = None, root: str = "
         plan.append((label.replace(f"{planned.demos} demos", f"{cfg.demos} demos"), cfg))
     return plan
 
-
-STUDIES = ("table1", "few_shot", "generalisation", "long_horizon", "backbones")
 
 
 def run_study(name: str, overrides: dict[str, Any] | None = None, root: str = "results") -> Path:

@@ -14,14 +14,14 @@ from bimanualshift.encoders.text import DEFAULT_SPEC, TextEncoder, default_text_
 from bimanualshift.geometry.frames import compose_rotation
 from bimanualshift.memory.bank import MemoryBank, Retrieval
 from bimanualshift.memory.reference import episode_key, reference_vector
-from bimanualshift.methods.prior_step import ArmStep, FrozenPriorStage, world_action
+from bimanualshift.methods.prior_step import ArmStep, FrozenPriorStep, world_action
 from bimanualshift.priors.base import UnimanualPrior
 from bimanualshift.residual.checkpoint import (
     load_residual_checkpoint,
     read_residual_config,
     save_residual_checkpoint,
 )
-from bimanualshift.residual.manager import ResidualPolicy, manager_inputs, phase_one_hot
+from bimanualshift.residual.manager import ResidualPolicy, manager_input_rows
 
 MEMORY_FILE = "memory.safetensors"  # the frozen memory bank, beside the residual's weights
 
@@ -29,13 +29,13 @@ MEMORY_FILE = "memory.safetensors"  # the frozen memory bank, beside the residua
 class BimanualShift:
     name = "bimanualshift"
 
-    def __init__(self, stage: FrozenPriorStage, residual: ResidualPolicy, memory: MemoryBank | None = None,
+    def __init__(self, prior_step: FrozenPriorStep, residual: ResidualPolicy, memory: MemoryBank | None = None,
                  text_encoder: TextEncoder | None = None) -> None:
         if (memory is not None) != (residual.config.reference_dim > 0):
             raise ValueError("a residual trained with retrieval needs its memory bank, and one trained without "
                              "retrieval takes none")
-        self.stage = stage
-        self.text_encoder = text_encoder or stage.text_encoder  # the residual's; the prior keeps its own
+        self.prior_step = prior_step
+        self.text_encoder = text_encoder or prior_step.text_encoder  # the residual's; the prior keeps its own
         if self.text_encoder.dim != residual.config.text_dim:
             raise ValueError(f"the residual reads {residual.config.text_dim}-wide instruction embeddings, the text "
                              f"encoder gives {self.text_encoder.dim}: load it with the encoder it was trained with")
@@ -58,7 +58,7 @@ class BimanualShift:
     @torch.no_grad()
     def decide(self, obs: KeyframeObservation) -> list[ArmDecision]:
         """Each arm's Manager input, frozen-prior action and final action (Eq. 4) at this keyframe."""
-        steps = self.stage.run(obs)
+        steps = self.prior_step.run(obs)
         text = torch.as_tensor(self.text_encoder.encode([obs.instruction]))
         arms = obs.scene.arm_names
         self._retrieve(steps, text, arms)
@@ -69,13 +69,11 @@ class BimanualShift:
             if self.memory is not None:
                 reference = torch.as_tensor(reference_vector(self.retrieval, obs.keyframe_index, i,
                                                              s.prior.base_action()[0].numpy()))[None]
-            rc = self.residual.config
-            goal = torch.as_tensor(s.goal)[None] if rc.goal_dim else None
-            phase = (phase_one_hot(torch.tensor([obs.keyframe_index]), torch.tensor([i]), rc.phase_dim, rc.num_arms)
-                     if rc.phase_dim else None)
-            inputs = manager_inputs(
-                s.prior.features, torch.as_tensor(s.proprio)[None], torch.as_tensor(s.other_proprio)[None], text,
-                s.prior.base_action(), torch.tensor([i]), rc.num_arms, reference, goal, phase,
+            goal = torch.as_tensor(s.goal)[None] if self.residual.config.goal_dim else None
+            inputs = manager_input_rows(
+                self.residual.config, s.prior.features, torch.as_tensor(s.proprio)[None],
+                torch.as_tensor(s.other_proprio)[None], text, s.prior.base_action(), torch.tensor([i]),
+                torch.tensor([obs.keyframe_index]), reference, goal,
             )
             out = self.residual(inputs)
             position = s.prior.position[0].numpy() + out["translation"][0].numpy()
@@ -122,8 +120,8 @@ def load_bimanualshift(directory: str | Path, text_encoder: TextEncoder | None =
     residual_encoder = make_text_encoder(spec) if spec.partition(":")[0] in ("minilm", "clip", "st") else text_encoder
     _, residual = load_residual_checkpoint(directory, residual_encoder.dim)
     memory = MemoryBank.load(directory / MEMORY_FILE) if rcfg.reference_dim > 0 else None
-    stage = FrozenPriorStage(prior, text_encoder, use_projection=cfg.get("use_projection", True),
+    prior_step = FrozenPriorStep(prior, text_encoder, use_projection=cfg.get("use_projection", True),
                              locate_goal=rcfg.goal_dim > 0,
                              segmenter=cfg.get("segmenter", "simulator"),
                              segmenter_options=cfg.get("segmenter_options"))
-    return BimanualShift(stage, residual, memory, residual_encoder)
+    return BimanualShift(prior_step, residual, memory, residual_encoder)

@@ -11,13 +11,13 @@ import numpy as np
 
 from bimanualshift.data.frames import KeyframeObservation
 from bimanualshift.encoders.text import TextEncoder
-from bimanualshift.methods.prior_step import FrozenPriorStage, world_action
+from bimanualshift.methods.prior_step import FrozenPriorStep, world_action
 from bimanualshift.priors.base import UnimanualPrior
 
 
 class FrozenPriorPerArm:
-    def __init__(self, stage: FrozenPriorStage, name: str = "frozen_prior_per_arm") -> None:
-        self.stage = stage
+    def __init__(self, prior_step: FrozenPriorStep, name: str = "frozen_prior_per_arm") -> None:
+        self.prior_step = prior_step
         self.name = name
 
     @staticmethod
@@ -25,14 +25,14 @@ class FrozenPriorPerArm:
                         use_projection: bool = False) -> FrozenPriorPerArm:
         """The baseline sees the global scene: no arm-conditioned projection, no residual. With
         ``use_projection`` it is the "without residual modulation" ablation: the projection, but no residual."""
-        return FrozenPriorPerArm(FrozenPriorStage(UnimanualPrior.from_pretrained(prior), text_encoder,
+        return FrozenPriorPerArm(FrozenPriorStep(UnimanualPrior.from_pretrained(prior), text_encoder,
                                                   use_projection=use_projection), name)
 
     def reset(self) -> None:
         pass
 
     def act(self, obs: KeyframeObservation) -> np.ndarray:
-        steps = self.stage.run(obs)
+        steps = self.prior_step.run(obs)
         rows = []
         for arm in obs.scene.arm_names:
             p = steps[arm].prior

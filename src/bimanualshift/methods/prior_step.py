@@ -1,4 +1,4 @@
-"""The stage every method shares: per-arm observations through the frozen prior."""
+"""The step every method shares at a keyframe: per-arm observations through the frozen prior."""
 
 from __future__ import annotations
 
@@ -29,20 +29,19 @@ class ArmStep:
     goal: np.ndarray  # (GOAL_GEOMETRY_DIM,) the goal's location in this arm's frame, from the projection
 
 
-class FrozenPriorStage:
+class FrozenPriorStep:
     def __init__(self, prior: UnimanualPrior, text_encoder: TextEncoder, use_projection: bool = True,
-                 max_keyframes: int = 25, segmenter: str = "simulator",
+                 segmenter: str = "simulator",
                  segmenter_options: dict[str, str] | None = None, locate_goal: bool = False) -> None:
         self.prior = prior.freeze()
         self.text_encoder = text_encoder
         cfg = prior.config
-        # The arm-conditioned projection is this stage's observation path; the ablation turns its masking off, and
+        # The arm-conditioned projection is this step's observation path; the ablation turns its masking off, and
         # keeps the segmentation only where the goal's location is wanted (``locate_goal``).
         segmented = use_projection or locate_goal
         projection = ArmProjection(make_segmenter(segmenter, **(segmenter_options or {}))) if segmented else None
         self.builder = ArmObservationBuilder(VoxelGrid(tuple(cfg.bounds), cfg.voxel_size), projection,
                                              mask_voxels=use_projection)
-        self.max_keyframes = max_keyframes
 
     def text(self, instruction: str) -> torch.Tensor:
         return torch.as_tensor(self.text_encoder.encode([instruction]))
@@ -53,7 +52,7 @@ class FrozenPriorStage:
         text = self.text(obs.instruction)
         steps = {}
         for arm in obs.scene.arm_names:
-            proprio = np.r_[per_arm[arm].proprio, obs.keyframe_index / self.max_keyframes].astype(np.float32)
+            proprio = self.prior.arm_proprio(per_arm[arm].proprio, obs.keyframe_index)
             out = self.prior.predict(torch.as_tensor(per_arm[arm].voxels)[None], torch.as_tensor(proprio)[None], text)
             steps[arm] = ArmStep(frames[arm], proprio, per_arm[arm].other_proprio, out, per_arm[arm].goal)
         return steps

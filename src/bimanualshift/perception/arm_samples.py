@@ -35,7 +35,7 @@ class ArmSamples:
         return len(self.instructions)
 
 
-def build_arm_samples(paths: list[Path], builder: ArmObservationBuilder, max_keyframes: int = 25,
+def build_arm_samples(paths: list[Path], builder: ArmObservationBuilder, max_keyframes: int,
                       desc: str = "voxelise") -> ArmSamples:
     rows: dict[str, list] = {k: [] for k in ArmSamples.__dataclass_fields__}
     for e, path in enumerate(tqdm(paths, desc=desc, unit="ep")):

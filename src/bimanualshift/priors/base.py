@@ -23,12 +23,13 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any, ClassVar, TypeVar
 
+import numpy as np
 import torch
 from safetensors.torch import save_file
 from torch import nn
 
 from bimanualshift.configs import prior_model_config
-from bimanualshift.utils.config_files import CheckpointError, config_from_dict, load_safetensors, read_json_file
+from bimanualshift.utils.config_files import CheckpointError, config_from_dict, load_checked_weights, read_json_file
 from bimanualshift.utils.io import atomic_write_text, atomic_writer
 from bimanualshift.utils.plugins import load_plugins
 
@@ -50,6 +51,9 @@ class PriorOutput:
 @dataclass
 class PriorConfig:
     type: ClassVar[str] = "base"
+    # The prior's input processing, saved with it: the keyframe index enters the proprioception (last value) as
+    # index / max_keyframes, in training and at inference alike (``UnimanualPrior.arm_proprio``).
+    max_keyframes: int = 25
 
     def to_dict(self) -> dict[str, Any]:
         return {"type": self.type, **asdict(self)}
@@ -97,6 +101,10 @@ class UnimanualPrior(nn.Module):
             mode = False  # a frozen prior stays in eval mode even inside a module put in training mode
         return super().train(mode)
 
+    def arm_proprio(self, own: np.ndarray, keyframe_index: int) -> np.ndarray:
+        """The proprioception row this prior reads: the arm's own values, then the keyframe fraction."""
+        return np.r_[own, keyframe_index / self.config.max_keyframes].astype(np.float32)
+
     def save_pretrained(self, directory: str | Path, extra: dict[str, Any] | None = None) -> Path:
         directory = Path(directory)
         directory.mkdir(parents=True, exist_ok=True)
@@ -124,16 +132,7 @@ class UnimanualPrior(nn.Module):
                                   "your own registers with @register_prior in a --plugin module)")
         cls = PRIORS[kind]
         model = cls(config_from_dict(cls.config_class, raw, cfg_path))
-        state = load_safetensors(weights)
-        expected = model.state_dict()
-        problems = [f"{k}: checkpoint {tuple(state[k].shape)} vs model {tuple(v.shape)}"
-                    for k, v in expected.items() if k in state and state[k].shape != v.shape]
-        missing = [k for k in expected if k not in state]
-        unexpected = [k for k in state if k not in expected]
-        if problems or missing or unexpected:
-            raise CheckpointError(f"{weights} does not match its config.json: shape mismatches {problems}, "
-                             f"missing {missing[:5]}, unexpected {unexpected[:5]}")
-        model.load_state_dict(state)
+        load_checked_weights(model, weights, "copy both files from the same run")
         return model
 
 

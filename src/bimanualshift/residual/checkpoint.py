@@ -12,7 +12,7 @@ from safetensors.torch import save_file
 
 from bimanualshift.residual.manager import ResidualConfig, ResidualPolicy
 from bimanualshift.residual.skills import SkillBasis
-from bimanualshift.utils.config_files import CheckpointError, config_from_dict, load_safetensors, read_json_file
+from bimanualshift.utils.config_files import CheckpointError, config_from_dict, load_checked_weights, read_json_file
 from bimanualshift.utils.io import atomic_write_json, atomic_writer
 
 WEIGHTS_FILE, CONFIG_FILE = "model.safetensors", "config.json"
@@ -50,15 +50,6 @@ def load_residual_checkpoint(directory: str | Path, text_dim: int) -> tuple[dict
     if not weights.is_file():
         raise FileNotFoundError(f"{directory} has {CONFIG_FILE} but no {WEIGHTS_FILE}; copy the whole checkpoint "
                                 "folder")
-    state = load_safetensors(weights)
-    expected = residual.state_dict()
-    mismatched = [f"{k}: checkpoint {tuple(state[k].shape)} vs config {tuple(v.shape)}"
-                  for k, v in expected.items() if k in state and state[k].shape != v.shape]
-    missing = [k for k in expected if k not in state]
-    unexpected = [k for k in state if k not in expected]
-    if missing or unexpected or mismatched:
-        raise CheckpointError(f"{weights} does not match its {CONFIG_FILE} (and a {text_dim}-wide text encoder): "
-                              f"missing {missing[:5]}, unexpected {unexpected[:5]}, shapes {mismatched[:5]}; copy "
-                              "both files from the same run, with the text encoder its config names")
-    residual.load_state_dict(state)
+    load_checked_weights(residual, weights, f"copy both files from the same run (the residual was built for a "
+                                           f"{text_dim}-wide text encoder: load it with the one its config names)")
     return raw, residual

@@ -137,6 +137,21 @@ def manager_inputs(features: torch.Tensor, proprio: torch.Tensor, other_proprio:
     return torch.cat(parts, dim=-1)
 
 
+def manager_input_rows(config: ResidualConfig, features: torch.Tensor, proprio: torch.Tensor,
+                       other_proprio: torch.Tensor, text: torch.Tensor, base_action: torch.Tensor,
+                       arm_index: torch.Tensor, keyframe: torch.Tensor, reference: torch.Tensor | None = None,
+                       goal: torch.Tensor | None = None) -> torch.Tensor:
+    """(N, width) Manager input rows exactly as ``config`` reads them (``config.layout()``): training, refinement
+    and inference all build their rows here. The retrieved reference and the goal geometry must be given when the
+    config reads them; the (arm, keyframe) phase one-hot is derived from ``keyframe``."""
+    for name, width, value in (("reference", config.reference_dim, reference), ("goal", config.goal_dim, goal)):
+        if width and value is None:
+            raise ValueError(f"this residual reads a {width}-wide {name}; pass it to build the Manager's input")
+    phase = phase_one_hot(keyframe, arm_index, config.phase_dim, config.num_arms) if config.phase_dim else None
+    return manager_inputs(features, proprio, other_proprio, text, base_action, arm_index, config.num_arms,
+                          reference if config.reference_dim else None, goal if config.goal_dim else None, phase)
+
+
 def phase_one_hot(keyframe: torch.Tensor, arm_index: torch.Tensor, width: int, num_arms: int) -> torch.Tensor:
     """(N, width) the (arm, keyframe index) pair as one one-hot over ``num_arms`` blocks of ``width // num_arms``
     slots: each arm's keyframes get their own slots. Keyframes past the end share their arm's last slot."""

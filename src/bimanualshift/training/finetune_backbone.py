@@ -50,9 +50,10 @@ def arm_frames_of(paths: list[Path]) -> list[dict[str, ArmFrame]]:
     return frames
 
 
-def _batches(spec: VoxelNetworkSpec, paths: list[Path], builder: ArmObservationBuilder, grid: VoxelGrid,
-             horizon: int, desc: str) -> PriorBatches:
-    samples = build_arm_samples(paths, builder, desc=desc)
+def _batches(spec: VoxelNetworkSpec, paths: list[Path], builder: ArmObservationBuilder, model: UnimanualPrior,
+             desc: str) -> PriorBatches:
+    grid, horizon = builder.grid, model.action_horizon
+    samples = build_arm_samples(paths, builder, model.config.max_keyframes, desc=desc)
     if spec.extra_proprio is not None:
         samples = with_extra_proprio(samples, spec.extra_proprio(samples, arm_frames_of(paths)))
     samples = select_arms(samples, spec.arms)
@@ -79,9 +80,9 @@ def train_voxel_network(spec: VoxelNetworkSpec, request: TrainRequest, out: Path
                                                                                      spec.kind)
     grid = VoxelGrid(tuple(model.config.bounds), model.config.voxel_size)
     builder = ArmObservationBuilder(grid)  # the global scene: no arm-conditioned projection
-    train = _batches(spec, paths, builder, grid, model.action_horizon, f"voxelise train ({spec.name})")
+    train = _batches(spec, paths, builder, model, f"voxelise train ({spec.name})")
     val_paths = list_episodes(request.validation_data, request.task)
-    val = _batches(spec, val_paths, builder, grid, model.action_horizon, "voxelise val") if val_paths else train
+    val = _batches(spec, val_paths, builder, model, "voxelise val") if val_paths else train
     if prior is None:  # a fine-tuned prior keeps its own normalisation
         model.set_normalization(train.actions["position"].reshape(-1, 3))
     optimiser = make_optimizer(optimizer, model.parameters(), lr=lr)

@@ -209,10 +209,12 @@ def pretrain(cfg: PretrainConfig) -> Path:
     for p in paths[:1]:
         if read_episode(p).arm_names != ["right"]:
             raise ValueError(f"{p} is not a single-arm episode: priors are pretrained on single-arm data only")
-    train = PriorBatches(build_arm_samples(paths, builder, desc="voxelise train"), grid, model.action_horizon)
+    max_keyframes = model.config.max_keyframes
+    train = PriorBatches(build_arm_samples(paths, builder, max_keyframes, desc="voxelise train"), grid,
+                         model.action_horizon)
     val_paths = [p for t in tasks for p in list_episodes(cfg.validation_data, t)]
-    val = (PriorBatches(build_arm_samples(val_paths, builder, desc="voxelise val"), grid, model.action_horizon)
-           if val_paths else None)
+    val = (PriorBatches(build_arm_samples(val_paths, builder, max_keyframes, desc="voxelise val"), grid,
+                        model.action_horizon) if val_paths else None)
     model.set_normalization(train.actions["position"].reshape(-1, 3))
     optimizer = make_optimizer(cfg.optimizer, model.parameters(), cfg.lr)
     augmentation = (Se3Augmentation(cfg.augment_translation_m, cfg.augment_yaw_deg)

@@ -209,18 +209,17 @@ def refine(cfg: RefineConfig, text_encoder: TextEncoder | None = None) -> Path:
             memory.add(key, trajectory, MemoryEntry(task, record["instruction"], "refinement", int(record["seed"])))
 
     # 4: fine-tune the residual branch on L_BC (demos) + lambda * L_corr (corrections).
-    stage, residual = policy.stage, policy.residual
+    prior_step, residual = policy.prior_step, policy.residual
     paths = list_episodes(train_cfg["data"], task)[: train_cfg["demos"]]
     if not paths:
         raise FileNotFoundError(f"the demos the checkpoint was trained on are gone: none for {task} under "
                                 f"{train_cfg['data']}")
     encoder = policy.text_encoder
-    goal, phase = residual.config.goal_dim > 0, residual.config.phase_dim // residual.config.num_arms
-    train = residual_data(paths, stage, encoder, "prior outputs (demos)", memory=memory, own_memory=True,
-                          goal_geometry=goal, phase_slots=phase)
+    train = residual_data(residual.config, paths, prior_step, encoder, "prior outputs (demos)", memory=memory,
+                          own_memory=True)
     val_paths = list_episodes(train_cfg["validation_data"], task)
-    val = residual_data(val_paths, stage, encoder, "prior outputs (val)", memory=memory,
-                        goal_geometry=goal, phase_slots=phase) if val_paths else train
+    val = residual_data(residual.config, val_paths, prior_step, encoder, "prior outputs (val)",
+                        memory=memory) if val_paths else train
     reset_output_scale(residual)  # fine-tune the whole residual; its factors are chosen again afterwards
     optimizer = make_lamb(residual.parameters(), lr=cfg.lr)
     lambda_corr = cfg.lambda_corr if corrections is not None else 0.0

@@ -22,11 +22,11 @@ from bimanualshift.geometry.frames import rotation_difference
 from bimanualshift.memory.bank import MemoryBank, MemoryEntry
 from bimanualshift.memory.reference import REFERENCE_DIM, episode_key, reference_vector
 from bimanualshift.methods.bimanualshift import MEMORY_FILE, save_residual
-from bimanualshift.methods.prior_step import FrozenPriorStage
+from bimanualshift.methods.prior_step import FrozenPriorStep
 from bimanualshift.perception.arm_samples import ArmSamples, build_arm_samples
 from bimanualshift.perception.goal_geometry import GOAL_GEOMETRY_DIM, shift_goal_geometry
 from bimanualshift.priors.base import UnimanualPrior
-from bimanualshift.residual.manager import ResidualConfig, ResidualPolicy, manager_inputs, phase_one_hot
+from bimanualshift.residual.manager import ResidualConfig, ResidualPolicy, manager_input_rows
 from bimanualshift.residual.output_gate import choose_output_scale, reset_output_scale
 from bimanualshift.residual.skills import SkillBasis
 from bimanualshift.training.augment import random_shift, shift_voxels
@@ -86,12 +86,13 @@ class ResidualData:
     memory: MemoryBank | None = None  # the bank the references came from (built here with ``build_memory``)
 
 
-def residual_data(paths: list[Path], stage: FrozenPriorStage, text_encoder: TextEncoder, desc: str,
+def residual_data(config: ResidualConfig, paths: list[Path], prior_step: FrozenPriorStep, text_encoder: TextEncoder,
+                  desc: str,
                   augment_copies: int = 0, augment_max_voxels: int = 0, seed: int = 0,
                   memory: MemoryBank | None = None, own_memory: bool = False, build_memory: float | None = None,
-                  task: str = "", earlier_memory: MemoryBank | None = None, goal_geometry: bool = False,
-                  phase_slots: int = 0) -> ResidualData:
-    """Manager inputs and residual targets for every (keyframe, arm), from the frozen prior's outputs.
+                  task: str = "", earlier_memory: MemoryBank | None = None) -> ResidualData:
+    """Manager inputs (as ``config`` reads them) and residual targets for every (keyframe, arm), from the frozen
+    prior's outputs.
 
     With ``augment_copies`` > 0, each sample is also seen through that many whole-voxel translations of
     the scene (the targets and both arms' proprioception move with it), and the frozen prior is run on
@@ -102,11 +103,11 @@ def residual_data(paths: list[Path], stage: FrozenPriorStage, text_encoder: Text
     itself. ``build_memory`` (a confidence threshold) builds that bank from these episodes in the same pass,
     followed by the entries of ``earlier_memory`` (an earlier task's bank) when given.
     """
-    samples = build_arm_samples(paths, stage.builder, stage.max_keyframes, desc=desc)
-    grid = stage.builder.grid
+    samples = build_arm_samples(paths, prior_step.builder, prior_step.prior.config.max_keyframes, desc=desc)
+    grid = prior_step.builder.grid
     arm_index = torch.as_tensor([ARM_ORDER.index(a) if a in ARM_ORDER else 0 for a in samples.arm])
     text = torch.as_tensor(text_encoder.encode(samples.instructions))  # the residual's (Manager, memory key)
-    prior_text = torch.as_tensor(stage.text_encoder.encode(samples.instructions))  # the prior's own
+    prior_text = torch.as_tensor(prior_step.text_encoder.encode(samples.instructions))  # the prior's own
     generator = torch.Generator().manual_seed(seed)
     parts = []
     for copy in range(1 + augment_copies):
@@ -126,7 +127,7 @@ def residual_data(paths: list[Path], stage: FrozenPriorStage, text_encoder: Text
         with torch.no_grad():
             for start in range(0, len(samples), 32):
                 sl = slice(start, start + 32)
-                out = stage.prior.predict(voxels[sl], proprio[sl], prior_text[sl])
+                out = prior_step.prior.predict(voxels[sl], proprio[sl], prior_text[sl])
                 features.append(out.features)
                 base.append(out.base_action())
         features_t, base_t = torch.cat(features), torch.cat(base)
@@ -139,11 +140,9 @@ def residual_data(paths: list[Path], stage: FrozenPriorStage, text_encoder: Text
         reference = None
         if memory is not None:
             reference = retrieved_references(samples, first_features, text, base_t, memory, own_memory)
-        goal = torch.as_tensor(shift_goal_geometry(samples.goal, offsets)) if goal_geometry else None
-        phase = (phase_one_hot(torch.as_tensor(samples.keyframe), arm_index, phase_slots * len(ARM_ORDER),
-                               len(ARM_ORDER)) if phase_slots else None)
-        inputs = manager_inputs(features_t, proprio, other, text, base_t, arm_index, len(ARM_ORDER), reference, goal,
-                                phase)
+        goal = torch.as_tensor(shift_goal_geometry(samples.goal, offsets)) if config.goal_dim else None
+        inputs = manager_input_rows(config, features_t, proprio, other, text, base_t, arm_index,
+                                    torch.as_tensor(samples.keyframe), reference, goal)
         translation = torch.as_tensor(samples.action_pos + offsets) - base_t[:, :3]
         rotation = torch.as_tensor(np.stack([rotation_difference(t, b) for t, b in
                                              zip(samples.action_quat, base_t[:, 3:7].numpy())]), dtype=torch.float32)
@@ -249,7 +248,7 @@ def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Pat
     atomic_write_json(out / "train_config.json", asdict(cfg))
     text_encoder = make_text_encoder(cfg.text_encoder)  # the prior keeps the encoder it was pretrained with
     prior = prior if prior is not None else UnimanualPrior.from_pretrained(cfg.prior)
-    stage = FrozenPriorStage(prior, default_text_encoder(), use_projection=cfg.use_projection,
+    prior_step = FrozenPriorStep(prior, default_text_encoder(), use_projection=cfg.use_projection,
                              locate_goal=cfg.goal_geometry, segmenter=cfg.segmenter,
                              segmenter_options=segmenter_options(cfg.grounding_dino, cfg.sam))
     paths = list_episodes(cfg.data, cfg.task)[: cfg.demos]
@@ -263,15 +262,14 @@ def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Pat
                           read_prior_features=cfg.prior_features, geometric_skip=cfg.geometric_skip,
                           output_gate=cfg.output_gate)
     earlier_state, earlier_memory = load_earlier(cfg.init_from, rcfg, cfg.retrieval) if cfg.init_from else (None, None)
-    train = residual_data(paths, stage, text_encoder, "prior outputs (train)", cfg.augment_copies,
+    train = residual_data(rcfg, paths, prior_step, text_encoder, "prior outputs (train)", cfg.augment_copies,
                           cfg.augment_max_voxels, cfg.seed,
                           build_memory=cfg.retrieval_threshold if cfg.retrieval else None, task=cfg.task,
-                          earlier_memory=earlier_memory, goal_geometry=cfg.goal_geometry,
-                          phase_slots=cfg.phase_slots)
+                          earlier_memory=earlier_memory)
     memory = train.memory
     val_paths = list_episodes(cfg.validation_data, cfg.task)
-    val = residual_data(val_paths, stage, text_encoder, "prior outputs (val)", memory=memory,
-                        goal_geometry=cfg.goal_geometry, phase_slots=cfg.phase_slots) if val_paths else train
+    val = residual_data(rcfg, val_paths, prior_step, text_encoder, "prior outputs (val)",
+                        memory=memory) if val_paths else train
     torch.manual_seed(cfg.seed)  # here, so how the prior was obtained cannot change the residual's init
     residual = ResidualPolicy(rcfg, SkillBasis.from_verbs(text_encoder))
     if earlier_state is not None:

@@ -81,3 +81,18 @@ def load_safetensors(path: str | Path) -> dict[str, Any]:
         size = Path(path).stat().st_size
         raise CheckpointError(f"{path} ({size:,} bytes) is not a readable safetensors file ({err}): it is probably "
                               "truncated or corrupt; copy it again, or re-save the checkpoint") from err
+
+
+def load_checked_weights(model: Any, weights: str | Path, fix: str) -> None:
+    """Load ``weights`` into ``model`` (a torch module) after checking every tensor's name and shape; a mismatch
+    names the file, the tensors and ``fix``."""
+    state = load_safetensors(weights)
+    expected = model.state_dict()
+    shapes = [f"{k}: checkpoint {tuple(state[k].shape)} vs model {tuple(v.shape)}"
+              for k, v in expected.items() if k in state and state[k].shape != v.shape]
+    missing = [k for k in expected if k not in state]
+    unexpected = [k for k in state if k not in expected]
+    if shapes or missing or unexpected:
+        raise CheckpointError(f"{weights} does not match its config.json: shape mismatches {shapes[:5]}, missing "
+                              f"{missing[:5]}, unexpected {unexpected[:5]}; {fix}")
+    model.load_state_dict(state)

@@ -28,8 +28,7 @@ class SceneView:
 
 
 class VoxelNetworkRunner:
-    def __init__(self, checkpoint: str | Path, text_encoder: TextEncoder, proprio_dim: int,
-                 max_keyframes: int = 25) -> None:
+    def __init__(self, checkpoint: str | Path, text_encoder: TextEncoder, proprio_dim: int) -> None:
         model = UnimanualPrior.from_pretrained(checkpoint)
         if model.config.proprio_dim != proprio_dim:
             raise ValueError(f"{checkpoint} reads {model.config.proprio_dim} proprio values; this policy gives "
@@ -37,14 +36,13 @@ class VoxelNetworkRunner:
         self.model = model.freeze()
         self.text_encoder = text_encoder
         self.builder = ArmObservationBuilder(VoxelGrid(tuple(model.config.bounds), model.config.voxel_size))
-        self.max_keyframes = max_keyframes
 
     def view(self, obs: KeyframeObservation) -> SceneView:
         return SceneView(obs, self.builder.build(obs), arm_frames(obs),
                          torch.as_tensor(self.text_encoder.encode([obs.instruction])))
 
     def predict(self, view: SceneView, arm: str, extra: np.ndarray) -> PriorOutput:
-        own = np.r_[view.per_arm[arm].proprio, view.obs.keyframe_index / self.max_keyframes].astype(np.float32)
+        own = self.model.arm_proprio(view.per_arm[arm].proprio, view.obs.keyframe_index)
         proprio = np.concatenate([own[:OWN_PROPRIO], np.asarray(extra, np.float32).ravel(), own[OWN_PROPRIO:]])
         return self.model.predict(torch.as_tensor(view.per_arm[arm].voxels)[None].float(),
                                   torch.as_tensor(proprio)[None], view.text)

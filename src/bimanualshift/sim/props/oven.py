@@ -12,6 +12,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from bimanualshift.sim.layout import TABLE_TOP_Z
+from bimanualshift.sim.props.mjcf import free_body
 from bimanualshift.sim.task import SimHandle
 
 PLINTH = 0.04  # oven floor (and hinge) height above the table
@@ -89,12 +90,7 @@ def tray_xml(name: str, round_tray: bool = False) -> str:
                          f'{look}/>')
     geoms.append(f'<geom name="{name}_tab" type="box" size="{TAB_HALF[0]} {TAB_HALF[1]} {TAB_HALF[2]}" '
                  f'pos="{TAB_X} 0 {2 * TRAY_FLOOR_HALF + TAB_HALF[2]}" friction="1.5 0.005 0.0001" {look}/>')
-    return f"""
-<body name="{name}" pos="0 0 {TABLE_TOP_Z + 0.3}">
-  <freejoint name="{name}_joint"/>
-  <inertial pos="0 0 0.004" mass="0.3" diaginertia="0.002 0.001 0.003"/>
-  {"".join(geoms)}
-</body>"""
+    return free_body(name, TABLE_TOP_Z + 0.3, geoms, mass=0.3, inertia=(0.002, 0.001, 0.003), com_z=0.004)
 
 
 class OvenFrame:

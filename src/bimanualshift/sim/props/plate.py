@@ -6,9 +6,14 @@ its fingers opening radially straddles the rim: one finger over the plate, one o
 
 from __future__ import annotations
 
+from typing import ClassVar
+
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from bimanualshift.sim.layout import TABLE_TOP_Z
+from bimanualshift.sim.props.mjcf import free_body
+from bimanualshift.sim.task import SimHandle, Task
 
 FOOT_HEIGHT = 0.010
 FLOOR_HALF = 0.003
@@ -46,10 +51,28 @@ def plate_xml(name: str, radius: float, square: bool = False, mass: float = 0.15
                 f'group="1" rgba="1 1 1 1"/>'
             )
     inertia = 0.25 * mass * radius**2
-    return f"""
-<body name="{name}" pos="0 0 {TABLE_TOP_Z}">
-  <freejoint name="{name}_joint"/>
-  <inertial pos="0 0 {floor_z}" mass="{mass}" diaginertia="{inertia} {inertia} {2 * inertia}"/>
-  {"".join(geoms)}
-</body>"""
+    return free_body(name, TABLE_TOP_Z, geoms, mass, (inertia, inertia, 2 * inertia), com_z=floor_z)
 
+
+
+class PlateLiftTask(Task):
+    """The hooks both plate tasks share: a plate named ``plate`` placed flat in ``region`` at a random yaw and
+    coloured from the palette, lifted by ``lifted_by`` to succeed."""
+
+    region: ClassVar[tuple[tuple[float, float], tuple[float, float]]]
+    yaw_range: ClassVar[tuple[float, float]]  # the plate's random turn about the vertical (radians)
+    lifted_by: ClassVar[float]  # metres the plate must rise
+
+    def initialize_episode(self, sim: SimHandle, rng: np.random.Generator) -> None:
+        xy = np.array([rng.uniform(*self.region[0]), rng.uniform(*self.region[1])])
+        yaw = rng.uniform(*self.yaw_range)
+        sim.set_free_pose("plate_joint", np.r_[xy, TABLE_TOP_Z], Rotation.from_euler("z", yaw).as_quat())
+        colour = self.pick_colours(rng, 1)[0]
+        sim.set_rgb_prefix("plate_", self.palette[colour])
+        self.episode = {"colour": colour}
+
+    def instruction(self) -> str:
+        return "pick up the plate"
+
+    def evaluate_success(self, sim: SimHandle) -> bool:
+        return bool(sim.body_pos("plate")[2] > TABLE_TOP_Z + self.lifted_by)

@@ -11,7 +11,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from bimanualshift.sim.layout import TABLE_TOP_Z
-from bimanualshift.sim.task import SimHandle
+from bimanualshift.sim.task import SimHandle, Task
 
 CABLE_PLUGIN = "mujoco.elasticity.cable"
 ROPE_RADIUS = 0.01
@@ -98,3 +98,26 @@ def crumpled_rope(rng: np.random.Generator) -> tuple[np.ndarray, float, np.ndarr
         if span < 0.38 and far.min() > 0.028 and inside and reachable and chain[0, 1] > chain[-1, 1] + 0.08:
             return chain[0], heading, bends
     raise RuntimeError("could not sample a rope shape")
+
+
+class RopeTask(Task):
+    """The hooks both rope tasks share: a cable named ``rope`` (MuJoCo's cable plugin), made visible after
+    compiling, seen as one instance, and coloured in one colour."""
+
+    plugins = (CABLE_PLUGIN,)
+
+    def after_compile(self, model: mujoco.MjModel) -> None:
+        show_rope(model, "rope")
+
+    def instance_name(self, root_body: str) -> str:
+        return "rope" if root_body == rope_bodies("rope")[0] else root_body
+
+    def crumple_rope(self, sim: SimHandle, rng: np.random.Generator) -> np.ndarray:
+        """Lay the rope out crumpled at random (``crumpled_rope``); where its head starts."""
+        start, heading, bends = crumpled_rope(rng)
+        shape_rope(sim, "rope", start, heading, bends)
+        return start
+
+    def colour_rope(self, sim: SimHandle, colour: str) -> None:
+        for body in rope_bodies("rope"):
+            sim.model.geom_rgba[sim.model.body_geomadr[sim.body_id(body)], :3] = self.palette[colour]

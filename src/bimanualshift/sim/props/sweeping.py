@@ -16,7 +16,7 @@ from scipy.spatial.transform import Rotation
 
 from bimanualshift.sim.layout import TABLE_TOP_Z
 from bimanualshift.sim.props.placement import sample_separated
-from bimanualshift.sim.task import SimHandle
+from bimanualshift.sim.task import SimHandle, Task
 
 PAN_LENGTH, PAN_WIDTH = 0.12, 0.20
 PAN_WALL_HEIGHT = 0.04
@@ -118,3 +118,24 @@ def dirt_in_pan(sim: SimHandle, pan: str, dirt: tuple[str, ...]) -> bool:
         if not (-PAN_LENGTH < x < -DIRT_HALF and abs(y) < PAN_WIDTH / 2 - DIRT_HALF):
             return False
     return True
+
+
+SWEEP_DIRT = tuple(f"dirt_{i}" for i in range(5))
+
+
+class SweepTask(Task):
+    """The hooks both sweeping tasks share: a dustpan, a brush and five dirt cubes placed by
+    ``place_sweep_scene``; every dirt cube in the pan to succeed."""
+
+    def scene_xml(self) -> str:
+        return (dustpan_xml("dustpan") + brush_xml("brush", round_stick=self.perturbations.unseen_shapes)
+                + "".join(dirt_xml(d) for d in SWEEP_DIRT))
+
+    def instance_class(self, instance: str) -> str:
+        return "dirt" if instance.startswith("dirt") else instance
+
+    def goal_nouns(self) -> list[str]:
+        return ["dirt", "dustpan", "brush"]
+
+    def evaluate_success(self, sim: SimHandle) -> bool:
+        return dirt_in_pan(sim, "dustpan", SWEEP_DIRT)

@@ -3,11 +3,10 @@
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from bimanualshift.sim.layout import TABLE_TOP_Z
-from bimanualshift.sim.props.plate import RIM_HEIGHT, plate_xml
-from bimanualshift.sim.task import DOWN_QUAT, ArmAction, Keyframe, SimHandle, Task, register_task
+from bimanualshift.sim.props.plate import RIM_HEIGHT, PlateLiftTask, plate_xml
+from bimanualshift.sim.task import DOWN_QUAT, ArmAction, Keyframe, SimHandle, register_task
 
 RADIUS = 0.12
 REGION = ((-0.06, 0.12), (-0.08, 0.08))
@@ -16,25 +15,12 @@ GRASP_HEIGHT = RIM_HEIGHT - 0.008  # gripper site height above the table: pads l
 
 
 @register_task("pick_up_plate")
-class PickUpPlate(Task):
+class PickUpPlate(PlateLiftTask):
+    region, yaw_range, lifted_by = REGION, (-np.pi / 8, np.pi / 8), LIFTED_BY
     bimanual = True
 
     def scene_xml(self) -> str:
         return plate_xml("plate", RADIUS, square=self.perturbations.unseen_shapes, mass=0.25)
-
-    def initialize_episode(self, sim: SimHandle, rng: np.random.Generator) -> None:
-        xy = np.array([rng.uniform(*REGION[0]), rng.uniform(*REGION[1])])
-        yaw = rng.uniform(-np.pi / 8, np.pi / 8)
-        sim.set_free_pose("plate_joint", np.r_[xy, TABLE_TOP_Z], Rotation.from_euler("z", yaw).as_quat())
-        colour = self.pick_colours(rng, 1)[0]
-        sim.set_rgb_prefix("plate_", self.palette[colour])
-        self.episode = {"colour": colour}
-
-    def instruction(self) -> str:
-        return "pick up the plate"
-
-    def evaluate_success(self, sim: SimHandle) -> bool:
-        return bool(sim.body_pos("plate")[2] > TABLE_TOP_Z + LIFTED_BY)
 
     def expert_keyframes(self, sim: SimHandle) -> list[Keyframe]:
         centre = sim.body_pos("plate")

@@ -2,22 +2,17 @@
 
 from __future__ import annotations
 
-import mujoco
 import numpy as np
 
 from bimanualshift.sim.layout import TABLE_TOP_Z
 from bimanualshift.sim.motions import carry_rope_end, zip_arms
 from bimanualshift.sim.props.markers import marker_xml
 from bimanualshift.sim.props.rope import (
-    CABLE_PLUGIN,
-    crumpled_rope,
-    rope_bodies,
+    RopeTask,
     rope_ends,
     rope_xml,
-    shape_rope,
-    show_rope,
 )
-from bimanualshift.sim.task import Keyframe, SimHandle, Task, register_task
+from bimanualshift.sim.task import Keyframe, SimHandle, register_task
 
 TARGET_RADIUS = 0.06
 TARGETS = {"head_target": (0.05, 0.23), "tail_target": (0.05, -0.23)}
@@ -32,18 +27,11 @@ PHRASINGS = (
 
 
 @register_task("straighten_rope")
-class StraightenRope(Task):
+class StraightenRope(RopeTask):
     bimanual = True
-    plugins = (CABLE_PLUGIN,)
 
     def scene_xml(self) -> str:
         return rope_xml("rope") + "".join(marker_xml(name, TARGET_RADIUS) for name in TARGETS)
-
-    def after_compile(self, model: mujoco.MjModel) -> None:
-        show_rope(model, "rope")
-
-    def instance_name(self, root_body: str) -> str:
-        return "rope" if root_body == rope_bodies("rope")[0] else root_body
 
     def instance_class(self, instance: str) -> str:
         return "target" if instance.endswith("_target") else instance
@@ -51,12 +39,9 @@ class StraightenRope(Task):
     def initialize_episode(self, sim: SimHandle, rng: np.random.Generator) -> None:
         for name, xy in TARGETS.items():
             sim.model.body_pos[sim.body_id(name)] = (*xy, TABLE_TOP_Z)
-        start, heading, bends = crumpled_rope(rng)
-        shape_rope(sim, "rope", start, heading, bends)
+        self.crumple_rope(sim, rng)
         colour = self.pick_colours(rng, 1)[0]
-        for body in rope_bodies("rope"):
-            b = sim.body_id(body)
-            sim.model.geom_rgba[sim.model.body_geomadr[b], :3] = self.palette[colour]
+        self.colour_rope(sim, colour)
         self.episode = {"colour": colour, "phrasing": int(rng.integers(len(PHRASINGS)))}
 
     def instruction(self) -> str:

@@ -6,27 +6,23 @@ from __future__ import annotations
 import numpy as np
 
 from bimanualshift.sim.motions import hold_dustpan, sweep_into_dustpan, zip_arms
-from bimanualshift.sim.props.sweeping import brush_xml, dirt_in_pan, dirt_xml, dustpan_xml, place_sweep_scene
-from bimanualshift.sim.task import Keyframe, SimHandle, Task, register_task
+from bimanualshift.sim.props.sweeping import (
+    SWEEP_DIRT,
+    SweepTask,
+    place_sweep_scene,
+)
+from bimanualshift.sim.task import Keyframe, SimHandle, register_task
 
-DIRT = tuple(f"dirt_{i}" for i in range(5))
 PHRASINGS = ("sweep the dirt to the dustpan", "sweep dirt to dustpan", "sweep the dirt into the dustpan",
              "brush the dirt into the dustpan")
 
 
 @register_task("sweep_to_dustpan")
-class SweepToDustpan(Task):
+class SweepToDustpan(SweepTask):
     bimanual = True
 
-    def scene_xml(self) -> str:
-        return (dustpan_xml("dustpan") + brush_xml("brush", round_stick=self.perturbations.unseen_shapes)
-                + "".join(dirt_xml(d) for d in DIRT))
-
-    def instance_class(self, instance: str) -> str:
-        return "dirt" if instance.startswith("dirt") else instance
-
     def initialize_episode(self, sim: SimHandle, rng: np.random.Generator) -> None:
-        place_sweep_scene(sim, rng, "dustpan", "brush", DIRT)
+        place_sweep_scene(sim, rng, "dustpan", "brush", SWEEP_DIRT)
         pan_colour, brush_colour = self.pick_colours(rng, 2)
         sim.set_rgb_prefix("dustpan_", self.palette[pan_colour])
         sim.set_rgb_prefix("brush_", self.palette[brush_colour])
@@ -36,15 +32,9 @@ class SweepToDustpan(Task):
     def instruction(self) -> str:
         return PHRASINGS[self.episode["phrasing"]]
 
-    def goal_nouns(self) -> list[str]:
-        return ["dirt", "dustpan", "brush"]
-
-    def evaluate_success(self, sim: SimHandle) -> bool:
-        return dirt_in_pan(sim, "dustpan", DIRT)
-
     def expert_keyframes(self, sim: SimHandle) -> list[Keyframe]:
         # The arm on the dustpan's side holds it; the other sweeps towards it (a mirrored layout swaps them).
         pan_arm = "left" if sim.body_pos("dustpan")[1] > sim.body_pos("brush")[1] else "right"
         brush_arm = "right" if pan_arm == "left" else "left"
-        sweep = sweep_into_dustpan(sim, "brush", "dustpan", DIRT)
+        sweep = sweep_into_dustpan(sim, "brush", "dustpan", SWEEP_DIRT)
         return zip_arms(**{pan_arm: hold_dustpan(sim, "dustpan", len(sweep)), brush_arm: sweep})

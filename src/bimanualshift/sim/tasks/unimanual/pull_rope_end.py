@@ -2,22 +2,17 @@
 
 from __future__ import annotations
 
-import mujoco
 import numpy as np
 
 from bimanualshift.sim.layout import TABLE_TOP_Z
 from bimanualshift.sim.motions import carry_rope_end
 from bimanualshift.sim.props.markers import marker_xml
 from bimanualshift.sim.props.rope import (
-    CABLE_PLUGIN,
-    crumpled_rope,
-    rope_bodies,
+    RopeTask,
     rope_ends,
     rope_xml,
-    shape_rope,
-    show_rope,
 )
-from bimanualshift.sim.task import Keyframe, SimHandle, Task, register_task
+from bimanualshift.sim.task import Keyframe, SimHandle, register_task
 
 TARGET_RADIUS = 0.06
 TARGET = ((-0.05, 0.12), (-0.28, 0.28))  # x, y of the target
@@ -25,30 +20,21 @@ PULL = (0.12, 0.25)  # distance from the rope's head to the target
 
 
 @register_task("pull_rope_end")
-class PullRopeEnd(Task):
+class PullRopeEnd(RopeTask):
     bimanual = False
-    plugins = (CABLE_PLUGIN,)
 
     def scene_xml(self) -> str:
         return rope_xml("rope") + marker_xml("target", TARGET_RADIUS)
 
-    def after_compile(self, model: mujoco.MjModel) -> None:
-        show_rope(model, "rope")
-
-    def instance_name(self, root_body: str) -> str:
-        return "rope" if root_body == rope_bodies("rope")[0] else root_body
-
     def initialize_episode(self, sim: SimHandle, rng: np.random.Generator) -> None:
-        start, heading, bends = crumpled_rope(rng)
-        shape_rope(sim, "rope", start, heading, bends)
+        start = self.crumple_rope(sim, rng)
         for _ in range(1000):  # the head starts well off the target, but not across the table
             target = np.array([rng.uniform(*TARGET[0]), rng.uniform(*TARGET[1])])
             if PULL[0] < np.linalg.norm(target - start) < PULL[1]:
                 break
         sim.model.body_pos[sim.body_id("target")] = (*target, TABLE_TOP_Z)
         colour = self.pick_colours(rng, 1)[0]
-        for body in rope_bodies("rope"):
-            sim.model.geom_rgba[sim.model.body_geomadr[sim.body_id(body)], :3] = self.palette[colour]
+        self.colour_rope(sim, colour)
         self.episode = {"colour": colour}
 
     def instruction(self) -> str:
