@@ -32,10 +32,7 @@ PRIOR_MODELS = PRIOR_SIZES["peract"]  # the PerAct sizes, by their historical na
 def prior_model_config(prior_type: str, size: str) -> dict[str, Any]:
     """Config-field overrides of a named size; a clear error for an unknown type or size."""
     if prior_type not in PRIOR_SIZES:
-        if size == "default":  # a prior type of the user's own (a plugin): its config's defaults
-            return {}
-        raise ValueError(f"no named sizes for prior type {prior_type!r}; known: {sorted(PRIOR_SIZES)} (give a "
-                         "plugin prior's sizes as --model overrides)")
+        raise ValueError(f"no named sizes for prior type {prior_type!r}; known: {sorted(PRIOR_SIZES)}")
     sizes = PRIOR_SIZES[prior_type]
     if size not in sizes:
         raise ValueError(f"unknown size {size!r} for the {prior_type} prior; choose from {sorted(sizes)}")

@@ -28,7 +28,7 @@ import torch
 from safetensors.torch import save_file
 from torch import nn
 
-from bimanualshift.configs import prior_model_config
+from bimanualshift.configs import PRIOR_SIZES, prior_model_config
 from bimanualshift.utils.config_files import CheckpointError, config_from_dict, load_checked_weights, read_json_file
 from bimanualshift.utils.io import atomic_write_text, atomic_writer
 from bimanualshift.utils.plugins import load_plugins
@@ -188,5 +188,7 @@ def build_prior(name: str, size: str = "default", model: dict[str, Any] | None =
     config-field overrides on top."""
     kind = prior_type(name)
     cls = PRIORS[kind]
-    values = {**prior_model_config(kind, size), **(model or {})}
+    # A prior type of the user's own (a plugin) has no named sizes: "default" is its config's defaults.
+    named = {} if kind not in PRIOR_SIZES and size == "default" else prior_model_config(kind, size)
+    values = {**named, **(model or {})}
     return cls(cls.config_class(**{k: tuple(v) if isinstance(v, list) else v for k, v in values.items()}))
