@@ -6,6 +6,7 @@ import argparse
 import importlib
 import sys
 import typing
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -132,18 +133,21 @@ def _config_file_default(cls: type, argv: list[str]) -> tuple[Any, list[str]]:
     return config_from_dict(cls, read_json_file(path), path, ignore_unknown=False), rest
 
 
-def _run_command(name: str, command: Command, argv: list[str]) -> None:
+def parse_command(name: str, argv: list[str]) -> tuple[Callable[[Any], None], Any]:
+    """The function a command line runs and its parsed options (nothing runs yet)."""
     from bimanualshift.cli.parsing import parse
 
-    if command.subcommands:
+    if name not in COMMANDS:
+        raise ValueError(f"unknown command {name!r}; `bimanualshift --help` lists them: {', '.join(COMMANDS)}")
+    command = COMMANDS[name]
+    while command.subcommands:
         choices = ", ".join(command.subcommands)
         if not argv or argv[0] in ("-h", "--help"):
             print(f"usage: bimanualshift {name} {{{choices}}} ...\n\n{command.help}")
             raise SystemExit(0 if argv else 2)
         if argv[0] not in command.subcommands:
-            raise ValueError(f"unknown figure {argv[0]!r} for `bimanualshift {name}`; choose from {choices}")
-        sub = argv[0]
-        return _run_command(f"{name} {sub}", command.subcommands[sub], argv[1:])
+            raise ValueError(f"unknown sub-command {argv[0]!r} of `bimanualshift {name}`; choose from {choices}")
+        name, command, argv = f"{name} {argv[0]}", command.subcommands[argv[0]], argv[1:]
     module, _, func = command.target.partition(":")
     fn = getattr(importlib.import_module(f"bimanualshift.cli.{module}"), func)
     cls = _options_type(fn)
@@ -152,7 +156,7 @@ def _run_command(name: str, command: Command, argv: list[str]) -> None:
         default, argv = _config_file_default(cls, argv)
     description = command.help + (" Options can come from --config FILE.json (e.g. a run's saved config.json); "
                                   "flags override it." if command.config_file else "")
-    fn(parse(cls, argv, f"bimanualshift {name}", description, default))
+    return fn, parse(cls, argv, f"bimanualshift {name}", description, default)
 
 
 def run(parser: argparse.ArgumentParser, argv: list[str]) -> None:
@@ -162,11 +166,10 @@ def run(parser: argparse.ArgumentParser, argv: list[str]) -> None:
         raise SystemExit(0 if argv else 2)
     name, rest = argv[0], argv[1:]
     try:
-        if name not in COMMANDS:
-            raise ValueError(f"unknown command {name!r}; `bimanualshift --help` lists them: {', '.join(COMMANDS)}")
         if plugins:
             add_plugins(plugins)
-        _run_command(name, COMMANDS[name], rest)
+        fn, options = parse_command(name, rest)
+        fn(options)
     except USER_ERRORS as err:
         if debug:
             raise
