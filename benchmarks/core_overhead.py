@@ -136,11 +136,13 @@ def main() -> None:
     seeds = {"test": [seed]}
     if args.train_data:
         from bimanualshift.training.residual_trainer import TrainConfig, train_residual
+        from bimanualshift.utils.config_files import config_from_flat
 
         with tempfile.TemporaryDirectory() as out:
             t0 = time.time()
-            train_residual(TrainConfig(task=args.task, prior=args.prior, data=args.train_data,
-                                       validation_data=args.train_data, out=out, demos=30, steps=args.train_steps))
+            train_residual(config_from_flat(TrainConfig, task=args.task, prior=args.prior, data=args.train_data,
+                                            validation_data=args.train_data, out=out, demos=30,
+                                            steps=args.train_steps))
             rows.append({"what": f"train on 30 demos, {args.train_steps} steps (s)",
                          "value": round(time.time() - t0, 1)})
         seeds["train"] = list(range(30))

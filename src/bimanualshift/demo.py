@@ -13,7 +13,7 @@ import json
 import shlex
 import sys
 import time
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
 import torch
@@ -31,8 +31,8 @@ from bimanualshift.methods.frozen_prior import FrozenPriorPerArm
 from bimanualshift.registry import TrainRequest
 from bimanualshift.rollout.loop import EpisodeRecord, rollout
 from bimanualshift.sim.env import ManipulationEnv
-from bimanualshift.training.pretrain import PretrainConfig, pretrain
-from bimanualshift.training.residual_trainer import TrainConfig, train_residual
+from bimanualshift.training.pretrain import PretrainConfig, PriorDataConfig, pretrain
+from bimanualshift.training.residual_trainer import ResidualDataConfig, TrainConfig, train_residual
 from bimanualshift.utils.workers import run_jobs
 
 SHIPPED_PRIOR = Path(__file__).resolve().parents[2] / "checkpoints" / "peract_suite"
@@ -65,7 +65,8 @@ def ensure_prior(cfg: DemoConfig) -> str:
     tasks = ["push_button", "pick_cube"]
     collect(tasks, split_seeds("train", 60), data, workers=cfg.workers)
     collect(tasks, split_seeds("validation", 8), val, workers=cfg.workers)
-    best = pretrain(PretrainConfig(tasks=tasks, data=data, validation_data=val, out=f"{cfg.workdir}/prior"))
+    best = pretrain(PretrainConfig(out=f"{cfg.workdir}/prior",
+                                   dataset=PriorDataConfig(tasks=tasks, data=data, validation_data=val)))
     return str(best)
 
 
@@ -90,14 +91,15 @@ def run_demo(cfg: DemoConfig) -> dict:
     print("[demo] 2/4 frozen single-arm prior")
     prior_path = ensure_prior(cfg)
     print("[demo] 3/4 training the residual branch (prior and projection frozen)")
-    best = train_residual(TrainConfig(task=cfg.task, prior=prior_path, data=data, validation_data=val_data,
-                                      out=f"{cfg.workdir}/bimanualshift", demos=cfg.demos,
-                                      steps=cfg.residual_steps, seed=cfg.seed))
+    best = train_residual(TrainConfig(
+        prior=prior_path, out=f"{cfg.workdir}/bimanualshift",
+        dataset=ResidualDataConfig(task=cfg.task, data=data, validation_data=val_data, demos=cfg.demos),
+        optim=replace(TrainConfig().optim, steps=cfg.residual_steps, seed=cfg.seed)))
     print(f"[demo] 4/4 evaluating on {cfg.test_episodes} held-out test seeds per method")
     # Test episodes in worker processes (an episode depends only on its policy, task and seed, so the pool changes
     # no outcome); then the first test episode of each method again here, recorded for the strip and the video.
     request = TrainRequest(task=cfg.task, data=data, validation_data=val_data, demos=cfg.demos, prior=prior_path,
-                           out=str(best.parent))
+                           out=str(best.parent), steps=cfg.residual_steps, seed=cfg.seed)
     methods = {"bimanualshift": str(best), "frozen_prior_per_arm": ""}
     jobs = [BenchJob(method, cfg.task, seed, checkpoint, asdict(request), max_keyframes=cfg.max_keyframes)
             for method, checkpoint in methods.items() for seed in test_seeds]

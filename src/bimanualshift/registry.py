@@ -18,6 +18,8 @@ from bimanualshift.core.policy import Policy
 from bimanualshift.training.baseline_configs import BackboneTrainConfig, LeaderFollowerTrainConfig
 from bimanualshift.training.request import TrainRequest
 
+DEFAULT_TRAIN_STEPS = 1500  # for methods that name no steps of their own
+
 
 @dataclass(frozen=True)
 class MethodSpec:
@@ -28,7 +30,7 @@ class MethodSpec:
     # Continual learning: the method can start from its own earlier run on another task (the request's
     # ``overrides["init_from"]`` names that run's folder).
     continual: bool = False
-    steps: int | None = None  # its default training steps (None: the benchmark's default)
+    steps: int = DEFAULT_TRAIN_STEPS  # its default training steps
     config: Any = None  # its default typed training config (a dataclass the request's overrides are applied to)
 
 
@@ -53,10 +55,11 @@ def _residual_method(name: str, description: str, **switches: Any) -> MethodSpec
 
     def train(request: TrainRequest) -> Path:
         from bimanualshift.training.residual_trainer import TrainConfig, train_residual
+        from bimanualshift.utils.config_files import config_from_flat
 
-        cfg = TrainConfig(task=request.task, prior=request.prior, data=request.data,
-                          validation_data=request.validation_data, out=request.out, demos=request.demos,
-                          steps=request.steps, seed=request.seed, **{**switches, **request.overrides})
+        cfg = config_from_flat(TrainConfig, task=request.task, prior=request.prior, data=request.data,
+                               validation_data=request.validation_data, out=request.out, demos=request.demos,
+                               steps=request.steps, seed=request.seed, **{**switches, **request.overrides})
         best = Path(request.out) / "best"
         if (Path(request.out) / "summary.json").is_file() and (best / "config.json").is_file():
             return best  # trained by an earlier (interrupted) benchmark run

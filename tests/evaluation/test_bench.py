@@ -71,7 +71,7 @@ def test_bench_runs_resumes_and_reports(demo_root: Path, tmp_path: Path) -> None
 
     prior = pretrain(pretrain_cfg(demo_root, tmp_path / "prior", steps=2))
     cfg = BenchConfig(tasks=["push_two_buttons"], methods=["bimanualshift", "no_residual"], demos=2,
-                      validation_demos=1, episodes=2, prior=str(prior), residual_steps=2, workers=1,
+                      validation_demos=1, episodes=2, prior=str(prior), steps=2, workers=1,
                       data=str(tmp_path / "data"), runs=str(tmp_path / "runs"), out=str(tmp_path / "out"), videos=1,
                       max_keyframes=1)
     summary = run_bench(cfg, command="test")
@@ -122,13 +122,14 @@ def test_rows_under_perturbations_report_relative_degradation() -> None:
 
 def test_training_steps_come_from_the_method_unless_the_benchmark_says_otherwise() -> None:
     from bimanualshift.configs import RESIDUAL_STEPS
-    from bimanualshift.evaluation.bench import DEFAULT_TRAIN_STEPS, _request
+    from bimanualshift.evaluation.bench import _request
+    from bimanualshift.registry import DEFAULT_TRAIN_STEPS
 
     base = BenchConfig(tasks=["push_two_buttons"])
     assert _request(base, "push_two_buttons", "bimanualshift").steps == RESIDUAL_STEPS
     assert _request(base, "push_two_buttons", "peract_lf").steps == DEFAULT_TRAIN_STEPS
     assert _request(base, "push_two_buttons", "scratch_voxel").steps == 3000  # the benchmark's per-method table
-    every = BenchConfig(tasks=["push_two_buttons"], residual_steps=2)
+    every = BenchConfig(tasks=["push_two_buttons"], steps=2)
     assert {_request(every, "push_two_buttons", m).steps for m in ("bimanualshift", "peract_lf")} == {2}
     assert _request(every, "push_two_buttons", "scratch_voxel").steps == 3000
 

@@ -36,12 +36,13 @@ def test_shards_split_the_global_batch_evenly() -> None:
 @pytest.mark.slow
 def test_two_gloo_processes_give_one_process_loss_curve(demo_root: Path, tmp_path: Path) -> None:
     cfg = pretrain_cfg(demo_root, tmp_path / "one", steps=STEPS)
-    cfg.checkpoint_every, cfg.batch_size = 1, 4
+    cfg.optim.checkpoint_every, cfg.optim.batch_size = 1, 4
     pretrain(cfg)
     two = tmp_path / "two"
     command = [sys.executable, "-m", "torch.distributed.run", "--standalone", "--nproc_per_node", "2",
                "-m", "bimanualshift.cli", "pretrain", "--prior", "peract", "--size", "debug",
-               "--tasks", "push_button", "pick_cube", "--data", cfg.data, "--validation-data", cfg.validation_data,
+               "--tasks", "push_button", "pick_cube", "--data", cfg.dataset.data,
+               "--validation-data", cfg.dataset.validation_data,
                "--out", str(two), "--steps", str(STEPS), "--batch-size", "4", "--checkpoint-every", "1"]
     env = {**os.environ, "OMP_NUM_THREADS": "1"}
     done = subprocess.run(command, capture_output=True, text=True, env=env, timeout=600)
@@ -54,7 +55,7 @@ def test_two_gloo_processes_give_one_process_loss_curve(demo_root: Path, tmp_pat
     two_w = load_file(str(latest_checkpoint(two) / "model.safetensors"))
     # LAMB, like Adam, divides each gradient entry by its own running scale: for an entry whose gradient is almost
     # zero it turns the float rounding of a two-way sum into a step of up to lr, so weights agree to steps x lr.
-    lr_bound = STEPS * cfg.lr
+    lr_bound = STEPS * cfg.optim.lr
     for key, value in one_w.items():
         assert (two_w[key] - value).abs().max() <= lr_bound, key
     agree = sum(torch.allclose(two_w[k], v, rtol=1e-4, atol=1e-5) for k, v in one_w.items())

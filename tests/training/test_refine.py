@@ -20,6 +20,7 @@ from bimanualshift.sim.env import ManipulationEnv
 from bimanualshift.training.checkpoint import latest_checkpoint
 from bimanualshift.training.refine import RefineConfig, expert_actions, refine, run_policy, strays
 from bimanualshift.training.residual_trainer import TrainConfig, train_residual
+from bimanualshift.utils.config_files import config_from_flat
 
 
 def _row(pos: list[float], yaw_deg: float = 0.0, gripper: float = 1.0) -> np.ndarray:
@@ -41,7 +42,7 @@ def trained(demo_root: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
 
     root = tmp_path_factory.mktemp("refine")
     prior = pretrain(pretrain_cfg(demo_root, root / "prior", steps=2))
-    return train_residual(TrainConfig(prior=str(prior), data=str(demo_root / "bimanual"),
+    return train_residual(config_from_flat(TrainConfig, prior=str(prior), data=str(demo_root / "bimanual"),
                                       validation_data=str(demo_root / "bimanual"), out=str(root / "residual"),
                                       steps=2, checkpoint_every=2, demos=2, retrieval=True,
                                       retrieval_threshold=-1.0))

@@ -18,12 +18,13 @@ from bimanualshift.sim.env import ManipulationEnv
 from bimanualshift.training.checkpoint import latest_checkpoint
 from bimanualshift.training.pretrain import PretrainConfig, pretrain
 from bimanualshift.training.residual_trainer import TrainConfig, train_residual
+from bimanualshift.utils.config_files import config_from_flat
 
 
 def pretrain_cfg(root: Path, out: Path, steps: int, prior: str = "peract") -> PretrainConfig:
-    return PretrainConfig(prior=prior, tasks=["push_button", "pick_cube"], data=str(root / "unimanual"),
-                          validation_data=str(root / "unimanual"), out=str(out), steps=steps, checkpoint_every=2,
-                          size="debug")
+    return config_from_flat(PretrainConfig, prior=prior, tasks=["push_button", "pick_cube"],
+                            data=str(root / "unimanual"), validation_data=str(root / "unimanual"), out=str(out),
+                            steps=steps, checkpoint_every=2, size="debug")
 
 
 @pytest.fixture(scope="module")
@@ -58,10 +59,11 @@ def test_diffusion_prior_pretrains_resumes_and_loads(demo_root: Path, tmp_path: 
 
 def test_pretraining_refuses_bimanual_tasks_and_missing_data(demo_root: Path, tmp_path: Path) -> None:
     with pytest.raises(ValueError, match="bimanual tasks"):
-        pretrain(PretrainConfig(tasks=["push_two_buttons"], data=str(demo_root / "bimanual"), out=str(tmp_path)))
+        pretrain(config_from_flat(PretrainConfig, tasks=["push_two_buttons"], data=str(demo_root / "bimanual"),
+                                  out=str(tmp_path)))
     with pytest.raises(FileNotFoundError, match="no single-arm demos for \\['slide_block'\\]"):
-        pretrain(PretrainConfig(tasks=["push_button", "slide_block"], data=str(demo_root / "unimanual"),
-                                out=str(tmp_path)))
+        pretrain(config_from_flat(PretrainConfig, tasks=["push_button", "slide_block"],
+                                  data=str(demo_root / "unimanual"), out=str(tmp_path)))
 
 
 def test_residual_training_resumes_keeps_prior_frozen_and_evaluates(demo_root: Path, tiny_prior: Path,
@@ -69,7 +71,7 @@ def test_residual_training_resumes_keeps_prior_frozen_and_evaluates(demo_root: P
     prior_before = load_file(str(tiny_prior / "model.safetensors"))
 
     def cfg(out: Path, steps: int) -> TrainConfig:
-        return TrainConfig(prior=str(tiny_prior), data=str(demo_root / "bimanual"),
+        return config_from_flat(TrainConfig, prior=str(tiny_prior), data=str(demo_root / "bimanual"),
                            validation_data=str(demo_root / "bimanual"), out=str(out), steps=steps,
                            checkpoint_every=2, demos=2)
 
@@ -133,7 +135,7 @@ def test_retrieval_trains_saves_its_frozen_memory_and_acts(demo_root: Path, tiny
     from bimanualshift.memory.bank import MemoryBank
     from bimanualshift.methods.bimanualshift import MEMORY_FILE
 
-    best = train_residual(TrainConfig(prior=str(tiny_prior), data=str(demo_root / "bimanual"),
+    best = train_residual(config_from_flat(TrainConfig, prior=str(tiny_prior), data=str(demo_root / "bimanual"),
                                       validation_data=str(demo_root / "bimanual"), out=str(tmp_path), steps=2,
                                       checkpoint_every=2, demos=2, retrieval=True, retrieval_threshold=-1.0))
     bank = MemoryBank.load(best / MEMORY_FILE)
@@ -158,7 +160,7 @@ def test_continual_run_starts_from_the_earlier_run_and_keeps_its_memory(demo_roo
     from bimanualshift.methods.bimanualshift import MEMORY_FILE
 
     def cfg(out: str, **kw: object) -> TrainConfig:
-        return TrainConfig(prior=str(tiny_prior), data=str(demo_root / "bimanual"),
+        return config_from_flat(TrainConfig, prior=str(tiny_prior), data=str(demo_root / "bimanual"),
                            validation_data=str(demo_root / "bimanual"), out=str(tmp_path / out), steps=2,
                            checkpoint_every=2, demos=2, retrieval=True, retrieval_threshold=-1.0, **kw)
 
@@ -195,7 +197,7 @@ def test_residual_with_a_clip_text_encoder_trains_and_reloads(demo_root: Path, t
     from tests.encoders.test_text import tiny_clip
 
     spec = f"clip:{tiny_clip(tmp_path / 'clip')}"
-    best = train_residual(TrainConfig(prior=str(tiny_prior), data=str(demo_root / "bimanual"),
+    best = train_residual(config_from_flat(TrainConfig, prior=str(tiny_prior), data=str(demo_root / "bimanual"),
                                       validation_data=str(demo_root / "bimanual"), out=str(tmp_path / "run"),
                                       steps=2, checkpoint_every=2, demos=2, text_encoder=spec))
     policy = load_bimanualshift(best)

@@ -48,3 +48,22 @@ def test_the_command_line_prints_one_error_line_and_exits_2(prior_dir: Path,
     err = capsys.readouterr().err
     errors = [line for line in err.splitlines() if line.startswith("error: ")]
     assert len(errors) == 1 and "model.safetensors" in errors[0] and "Traceback" not in err
+
+
+def test_a_flat_config_of_an_older_run_reads_as_the_nested_one() -> None:
+    from dataclasses import asdict
+
+    from bimanualshift.training.pretrain import PretrainConfig
+    from bimanualshift.training.residual_trainer import TrainConfig
+    from bimanualshift.utils.config_files import config_from_dict
+
+    flat = {"task": "lift_ball", "data": "d", "steps": 7, "retrieval": True, "prior": "p", "lr": 0.1, "beta": 2.0}
+    cfg = config_from_dict(TrainConfig, flat, "old.json", ignore_unknown=False)
+    assert (cfg.dataset.task, cfg.dataset.data, cfg.optim.steps, cfg.optim.lr) == ("lift_ball", "d", 7, 0.1)
+    assert cfg.model.retrieval and cfg.prior == "p" and cfg.beta == 2.0
+    assert config_from_dict(TrainConfig, json.loads(json.dumps(asdict(cfg))), "new.json") == cfg
+    old_prior = {"prior": "dp", "tasks": ["push_button"], "model": {"dim": 64}, "steps": 5, "size": "debug"}
+    pretrain = config_from_dict(PretrainConfig, old_prior, "old.json", ignore_unknown=False)
+    assert pretrain.network.model == {"dim": 64} and pretrain.network.prior == "dp" and pretrain.optim.steps == 5
+    with pytest.raises(CheckpointError, match=r"old.json \(optim\): field 'steps' is 'many'"):
+        config_from_dict(TrainConfig, {**flat, "steps": "many"}, "old.json")

@@ -40,7 +40,7 @@ def test_ray_executor_gives_the_local_pool_s_episodes_seed_by_seed(tmp_path: Pat
     from bimanualshift.evaluation.bench import BenchJob, run_bench_episode
 
     request = {"task": "push_two_buttons", "data": "", "validation_data": "", "demos": 1, "prior": "peract_suite",
-               "out": str(tmp_path)}
+               "out": str(tmp_path), "steps": 1}
     jobs = [BenchJob("frozen_prior_per_arm", "push_two_buttons", seed, "", request, max_keyframes=3)
             for seed in (200_000, 200_001, 200_002)]
     local = sorted(run_jobs(run_bench_episode, jobs, workers=2, chunksize=1), key=lambda e: e["seed"])

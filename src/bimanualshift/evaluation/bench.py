@@ -42,7 +42,7 @@ class BenchConfig:
     validation_demos: int = 5
     episodes: int = 100  # test seeds per task
     prior: str = "peract_suite"
-    residual_steps: int = 0  # training steps of every method; 0: each method's own (MethodSpec.steps, else 1500)
+    steps: int = 0  # training steps of every method not in method_steps; 0: each method's own (MethodSpec.steps)
     method_steps: dict = field(default_factory=lambda: {"scratch_voxel": 3000})  # per-method training steps
     workers: int = 2
     executor: str = "local"  # local: this machine's worker processes; ray: Ray tasks on a cluster (RAY_ADDRESS)
@@ -70,7 +70,6 @@ class BenchJob:
     perturbation: str = "none"
 
 
-DEFAULT_TRAIN_STEPS = 1500  # for methods that name no steps of their own
 
 
 
@@ -84,8 +83,7 @@ def _request(cfg: BenchConfig, task: str, method: str, training: bool = True) ->
         overrides["init_from"] = str(earlier)
     return TrainRequest(task=task, data=f"{cfg.data}/train", validation_data=f"{cfg.data}/validation",
                         demos=cfg.demos, prior=cfg.prior, out=f"{cfg.runs}/{task}/{method}",
-                        steps=int(cfg.method_steps.get(method) or cfg.residual_steps or get_method(method).steps
-                                  or DEFAULT_TRAIN_STEPS),
+                        steps=int(cfg.method_steps.get(method) or cfg.steps or get_method(method).steps),
                         seed=cfg.seed,
                         overrides=overrides)
 
@@ -93,7 +91,7 @@ def _request(cfg: BenchConfig, task: str, method: str, training: bool = True) ->
 # The settings that change what a recorded episode or a trained run measures. A results folder holds the episodes
 # of one setting and a training run the weights of one request: reusing either under other settings would put,
 # say, 30-demo episodes in a 100-demo table without a word.
-EPISODE_SETTINGS = ("demos", "validation_demos", "prior", "residual_steps", "method_steps", "max_keyframes", "seed",
+EPISODE_SETTINGS = ("demos", "validation_demos", "prior", "steps", "method_steps", "max_keyframes", "seed",
                     "continue_from")
 SETTINGS_FILE = "bench_settings.json"
 REQUEST_FILE = "bench_request.json"

@@ -33,8 +33,8 @@ from bimanualshift.training.distributed import init_distributed, loss_module
 from bimanualshift.training.loop import run_training
 from bimanualshift.training.optim import make_optimizer
 from bimanualshift.training.pretrain import (
-    PretrainConfig,
     PriorBatches,
+    PriorDataConfig,
     global_batch_shard,
     translation_accuracy,
 )
@@ -86,7 +86,8 @@ def train_voxel_network(spec: VoxelNetworkSpec, request: TrainRequest, out: Path
     if prior is None:  # a fine-tuned prior keeps its own normalisation
         model.set_normalization(train.actions["position"].reshape(-1, 3))
     optimiser = make_optimizer(optimizer, model.parameters(), lr=lr)
-    augmentation = Se3Augmentation(PretrainConfig.augment_translation_m, PretrainConfig.augment_yaw_deg)
+    augment = PriorDataConfig()  # the priors' own augmentation
+    augmentation = Se3Augmentation(augment.augment_translation_m, augment.augment_yaw_deg)
     if ctx.is_main:
         atomic_write_json(out / "train_config.json", {
             "network": spec.name, "kind": spec.kind, "request": asdict(request), "size": size, "lr": lr,

@@ -29,31 +29,43 @@ from bimanualshift.sim.task import resolve_task_names, task_names
 from bimanualshift.training.augment import Se3Augmentation, transform_points, transform_quats, transform_voxels
 from bimanualshift.training.distributed import Distributed, init_distributed, loss_module
 from bimanualshift.training.loop import run_training
-from bimanualshift.training.optim import make_optimizer
+from bimanualshift.training.optim import OptimConfig, make_optimizer
 from bimanualshift.utils.io import atomic_write_json, atomic_write_text
 
 
 @dataclass
-class PretrainConfig:
-    prior: str = "peract"  # a registered prior type: peract, dp (= diffusion) or act
+class PriorDataConfig:
+    """The single-arm demos a prior learns from, and how they are augmented."""
+
     tasks: list[str] = field(default_factory=lambda: ["unimanual"])  # task names or the group 'unimanual'
     data: str = "data/unimanual"
     validation_data: str = "data/unimanual_val"
-    out: str = "runs/prior"
-    steps: int = 3000
-    batch_size: int = 4
-    lr: float = 1e-3
-    optimizer: str = "lamb"  # lamb (PerAct, the paper) or adamw (Diffusion Policy)
-    checkpoint_every: int = 250
     augment_translation_m: float = 0.04  # SE(3) augmentation: horizontal shift ...
     augment_yaw_deg: float = 15.0  # ... and yaw about the grid's vertical axis; 0 and 0 turn it off
-    seed: int = 0
+
+
+@dataclass
+class PriorNetworkConfig:
+    """Which network: a registered prior type, a named size, and field overrides on top."""
+
+    prior: str = "peract"  # a registered prior type: peract, dp (= diffusion) or act
     size: str = "default"  # a named model size from bimanualshift.configs (default, debug, ...)
     model: dict = field(default_factory=dict)  # overrides of the prior's config fields, e.g. {"dim": 64}
 
 
+@dataclass
+class PretrainConfig:
+    """`bimanualshift pretrain`: data, network and optimisation of a single-arm prior. Every field of every group
+    is one flag (``--prior``, ``--tasks``, ``--steps``, ...); a flat config of an older run still reads."""
+
+    out: str = "runs/prior"
+    dataset: PriorDataConfig = field(default_factory=PriorDataConfig)
+    network: PriorNetworkConfig = field(default_factory=PriorNetworkConfig)
+    optim: OptimConfig = field(default_factory=lambda: OptimConfig(steps=3000, lr=1e-3))
+
+
 def build_prior(cfg: PretrainConfig) -> UnimanualPrior:
-    return build_prior_network(cfg.prior, cfg.size, cfg.model)
+    return build_prior_network(cfg.network.prior, cfg.network.size, cfg.network.model)
 
 
 class PriorBatches:
@@ -141,19 +153,20 @@ def _first_line(doc: str | None) -> str:
 
 def model_card(cfg: PretrainConfig, kind: str, step: int, accuracy: float, train_episodes: int, val_episodes: int,
                wall_time_s: float, parameters: int, train_seeds: int = 0, val_seeds: int = 0) -> str:
-    overrides = f" --model '{json.dumps(cfg.model)}'" if cfg.model else ""
-    names = resolve_task_names(cfg.tasks)
+    ds, net, opt = cfg.dataset, cfg.network, cfg.optim
+    overrides = f" --model '{json.dumps(net.model)}'" if net.model else ""
+    names = resolve_task_names(ds.tasks)
     tasks = " ".join(names)
-    augmentation = (f"SE(3): yaw up to {cfg.augment_yaw_deg} deg, horizontal shift up to "
-                    f"{100 * cfg.augment_translation_m:.0f} cm")
+    augmentation = (f"SE(3): yaw up to {ds.augment_yaw_deg} deg, horizontal shift up to "
+                    f"{100 * ds.augment_translation_m:.0f} cm")
     reproduce = "\n".join([
         f"bimanualshift collect --task {tasks} --episodes {train_seeds or train_episodes // len(names)} "
-        f"--out {cfg.data} --workers 2",
+        f"--out {ds.data} --workers 2",
         f"bimanualshift collect --task {tasks} --episodes {val_seeds or val_episodes // len(names)} "
-        f"--split validation --out {cfg.validation_data} --workers 2",
-        f"bimanualshift pretrain --prior {cfg.prior} --size {cfg.size} --tasks {tasks} --data {cfg.data} "
-        f"--validation-data {cfg.validation_data} --steps {cfg.steps} --batch-size {cfg.batch_size} "
-        f"--lr {cfg.lr} --optimizer {cfg.optimizer} --seed {cfg.seed}{overrides}",
+        f"--split validation --out {ds.validation_data} --workers 2",
+        f"bimanualshift pretrain --prior {net.prior} --size {net.size} --tasks {tasks} --data {ds.data} "
+        f"--validation-data {ds.validation_data} --steps {opt.steps} --batch-size {opt.batch_size} "
+        f"--lr {opt.lr} --optimizer {opt.optimizer} --seed {opt.seed}{overrides}",
     ])
     what = {"peract": "voxels in the arm's base frame -> translation heat-map, Euler rotation bins, gripper and "
                       "collision (PerAct-style)",
@@ -170,7 +183,7 @@ A frozen unimanual prior for BimanualShift: {what}. Trained on **single-arm demo
 | training tasks | {", ".join(names)} |
 | training episodes | {train_episodes} successful expert episodes (train seeds from 0, {train_seeds} tried per task) |
 | validation episodes | {val_episodes} (validation seeds from 100000, {val_seeds} tried per task; picks it) |
-| chosen step | {step} of {cfg.steps} (batch {cfg.batch_size}, {cfg.optimizer} lr {cfg.lr}, {augmentation}) |
+| chosen step | {step} of {opt.steps} (batch {opt.batch_size}, {opt.optimizer} lr {opt.lr}, {augmentation}) |
 | parameters | {parameters:,} |
 | validation keyframes within 3 cm | {100 * accuracy:.1f} % |
 | training time to this step | {wall_time_s / 60:.1f} min (optimisation and validation, after data loading) |
@@ -184,46 +197,47 @@ Reproduce:
 
 
 def pretrain(cfg: PretrainConfig) -> Path:
+    ds, net, opt = cfg.dataset, cfg.network, cfg.optim
     started = time.time()
-    kind = prior_type(cfg.prior)
+    kind = prior_type(net.prior)
     out = Path(cfg.out)
     ctx = init_distributed()  # one process, or one of torchrun's
     if ctx.is_main:
         out.mkdir(parents=True, exist_ok=True)
         atomic_write_json(out / "config.json", asdict(cfg))
-    torch.manual_seed(cfg.seed)
+    torch.manual_seed(opt.seed)
     model = build_prior(cfg)
     prior_cfg = model.config
     grid = VoxelGrid(tuple(prior_cfg.bounds), prior_cfg.voxel_size)
     builder = ArmObservationBuilder(grid)
-    tasks = resolve_task_names(cfg.tasks)
+    tasks = resolve_task_names(ds.tasks)
     bimanual = [t for t in tasks if t in task_names(bimanual=True)]
     if bimanual:
         raise ValueError(f"{bimanual} are bimanual tasks: priors are pretrained on single-arm tasks only")
-    missing = [t for t in tasks if not list_episodes(cfg.data, t)]
+    missing = [t for t in tasks if not list_episodes(ds.data, t)]
     if missing:
-        raise FileNotFoundError(f"no single-arm demos for {missing} under {cfg.data}; run "
-                                f"`bimanualshift collect --task {' '.join(missing)} --episodes N --out {cfg.data}` "
+        raise FileNotFoundError(f"no single-arm demos for {missing} under {ds.data}; run "
+                                f"`bimanualshift collect --task {' '.join(missing)} --episodes N --out {ds.data}` "
                                 "first, or pass --tasks with the tasks you have")
-    paths = [p for t in tasks for p in list_episodes(cfg.data, t)]
+    paths = [p for t in tasks for p in list_episodes(ds.data, t)]
     for p in paths[:1]:
         if read_episode(p).arm_names != ["right"]:
             raise ValueError(f"{p} is not a single-arm episode: priors are pretrained on single-arm data only")
     max_keyframes = model.config.max_keyframes
     train = PriorBatches(build_arm_samples(paths, builder, max_keyframes, desc="voxelise train"), grid,
                          model.action_horizon)
-    val_paths = [p for t in tasks for p in list_episodes(cfg.validation_data, t)]
+    val_paths = [p for t in tasks for p in list_episodes(ds.validation_data, t)]
     val = (PriorBatches(build_arm_samples(val_paths, builder, max_keyframes, desc="voxelise val"), grid,
                         model.action_horizon) if val_paths else None)
     model.set_normalization(train.actions["position"].reshape(-1, 3))
-    optimizer = make_optimizer(cfg.optimizer, model.parameters(), cfg.lr)
-    augmentation = (Se3Augmentation(cfg.augment_translation_m, cfg.augment_yaw_deg)
-                    if cfg.augment_translation_m > 0 or cfg.augment_yaw_deg > 0 else None)
+    optimizer = make_optimizer(opt.optimizer, model.parameters(), opt.lr)
+    augmentation = (Se3Augmentation(ds.augment_translation_m, ds.augment_yaw_deg)
+                    if ds.augment_translation_m > 0 or ds.augment_yaw_deg > 0 else None)
 
     losses = loss_module(model, ctx)
 
     def step_fn(step: int, gen: torch.Generator) -> dict[str, torch.Tensor]:
-        index = torch.randint(len(train), (cfg.batch_size,), generator=gen)
+        index = torch.randint(len(train), (opt.batch_size,), generator=gen)
         return losses(*global_batch_shard(train, index, gen, augmentation, ctx), gen)
 
     def validate(step: int) -> float:
@@ -238,7 +252,7 @@ def pretrain(cfg: PretrainConfig) -> Path:
             cfg, kind, step, -value, len(paths), len(val_paths), elapsed_s,
             sum(p.numel() for p in model.parameters()), seeds_tried(paths), seeds_tried(val_paths)))
 
-    result = run_training(out, model, optimizer, cfg.steps, step_fn, cfg.seed, cfg.checkpoint_every,
+    result = run_training(out, model, optimizer, opt.steps, step_fn, opt.seed, opt.checkpoint_every,
                           validate, on_best, desc=f"pretrain {kind}", ctx=ctx)
     summary = {**result, "wall_time_s": round(time.time() - started, 1), "train_samples": len(train),
                "processes": ctx.world_size}

@@ -40,8 +40,8 @@ from bimanualshift.rollout.loop import rollout
 from bimanualshift.sim.env import ManipulationEnv
 from bimanualshift.training.loop import run_training
 from bimanualshift.training.optim import make_lamb
-from bimanualshift.training.residual_trainer import ResidualData, bc_loss, residual_data
-from bimanualshift.utils.config_files import load_safetensors, read_json_file
+from bimanualshift.training.residual_trainer import ResidualData, TrainConfig, bc_loss, residual_data
+from bimanualshift.utils.config_files import config_from_dict, load_safetensors, read_json_file
 from bimanualshift.utils.io import atomic_write_json, atomic_writer
 
 
@@ -194,10 +194,11 @@ def refine(cfg: RefineConfig, text_encoder: TextEncoder | None = None) -> Path:
     if not (checkpoint / "config.json").is_file():
         raise FileNotFoundError(f"no BimanualShift checkpoint at {checkpoint}; train one with `bimanualshift train`")
     meta = read_json_file(checkpoint / "config.json")
-    train_cfg = meta.get("train_config")
-    if not train_cfg:
+    if not meta.get("train_config"):
         raise ValueError(f"{checkpoint}/config.json has no train_config; re-train it with this version of "
                          "`bimanualshift train` so refinement can find its demos")
+    # the demos it was trained on (a flat train_config of an older checkpoint reads too)
+    train_cfg = config_from_dict(TrainConfig, meta["train_config"], checkpoint / "config.json").dataset
     policy = load_bimanualshift(checkpoint, text_encoder)
     task = meta["task"]
 
@@ -210,14 +211,14 @@ def refine(cfg: RefineConfig, text_encoder: TextEncoder | None = None) -> Path:
 
     # 4: fine-tune the residual branch on L_BC (demos) + lambda * L_corr (corrections).
     prior_step, residual = policy.prior_step, policy.residual
-    paths = list_episodes(train_cfg["data"], task)[: train_cfg["demos"]]
+    paths = list_episodes(train_cfg.data, task)[: train_cfg.demos]
     if not paths:
         raise FileNotFoundError(f"the demos the checkpoint was trained on are gone: none for {task} under "
-                                f"{train_cfg['data']}")
+                                f"{train_cfg.data}")
     encoder = policy.text_encoder
     train = residual_data(residual.config, paths, prior_step, encoder, "prior outputs (demos)", memory=memory,
                           own_memory=True)
-    val_paths = list_episodes(train_cfg["validation_data"], task)
+    val_paths = list_episodes(train_cfg.validation_data, task)
     val = residual_data(residual.config, val_paths, prior_step, encoder, "prior outputs (val)",
                         memory=memory) if val_paths else train
     reset_output_scale(residual)  # fine-tune the whole residual; its factors are chosen again afterwards

@@ -14,6 +14,6 @@ class TrainRequest:
     demos: int
     prior: str  # the frozen single-arm prior (a folder or a shipped name)
     out: str  # the method's run directory for this task
-    steps: int = 1500
+    steps: int  # training steps (the benchmark: BenchConfig.steps, else the method's own)
     seed: int = 0
     overrides: dict[str, Any] = field(default_factory=dict)  # the method's own training options

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import json
 import time
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -31,7 +31,7 @@ from bimanualshift.residual.output_gate import choose_output_scale, reset_output
 from bimanualshift.residual.skills import SkillBasis
 from bimanualshift.training.augment import random_shift, shift_voxels
 from bimanualshift.training.loop import run_training
-from bimanualshift.training.optim import make_lamb
+from bimanualshift.training.optim import OptimConfig, make_optimizer
 from bimanualshift.utils.config_files import load_safetensors, read_json_file
 from bimanualshift.utils.io import atomic_write_json
 
@@ -39,18 +39,21 @@ ARM_ORDER = ("left", "right")  # the Manager's arm one-hot; single-arm data coun
 
 
 @dataclass
-class TrainConfig:
+class ResidualDataConfig:
+    """The bimanual demos the residual learns from."""
+
     task: str = "push_two_buttons"
-    prior: str = "peract_suite"  # a shipped name or a checkpoint folder
     data: str = "data/bimanual"
     validation_data: str = "data/bimanual_val"
-    out: str = "runs/bimanualshift"
     demos: int = 20
-    steps: int = RESIDUAL_STEPS
-    batch_size: int = 4
-    lr: float = 5e-4
-    beta: float = 1.0  # weight of the rotation term in L_BC (Eq. 12)
-    checkpoint_every: int = 250
+    augment_copies: int = 0  # shifted copies of every demo keyframe, each through the frozen prior
+    augment_max_voxels: int = 2
+
+
+@dataclass
+class ResidualModelConfig:
+    """What the residual reads, and how the frozen prior's observation is made."""
+
     use_projection: bool = True
     segmenter: str = "simulator"  # simulator | grounded_sam | degraded-mild | degraded-strong
     grounding_dino: str = ""  # grounded_sam only: local save_pretrained folder or hub id (empty: the default)
@@ -59,9 +62,6 @@ class TrainConfig:
     retrieval: bool = False  # the memory bank's temporal reference as a Manager input (Eq. 8-9)
     retrieval_threshold: float = 0.5  # cosine similarity below which no reference is used
     text_encoder: str = "minilm"  # the residual's instruction / skill-verb encoder: minilm | clip | clip:<dir>
-    # Continual learning: an earlier BimanualShift run (or its checkpoint) whose Manager, Z and G start this run
-    # and whose memory bank entries join this task's, so earlier tasks stay retrievable.
-    init_from: str = ""
     # The goal's location (centroid and extent in the arm's frame, from the projection's goal segmentation) as a
     # Manager input; with --use-projection false the goal is still segmented for it, only the masking is off.
     goal_geometry: bool = True
@@ -73,9 +73,33 @@ class TrainConfig:
     # After training, scale the residual's translation and rotation by factors chosen on the validation demos
     # (residual/output_gate.py): the residual is turned down where the prior alone places keyframes better.
     output_gate: bool = True
-    augment_copies: int = 0  # shifted copies of every demo keyframe, each through the frozen prior
-    augment_max_voxels: int = 2
-    seed: int = 0
+
+    def residual_config(self, feature_dim: int, text_dim: int) -> ResidualConfig:
+        """The network's config: the one place these switches become the residual's widths and flags
+        (``ResidualConfig``'s own defaults are what a checkpoint written before a field existed meant)."""
+        return ResidualConfig(feature_dim=feature_dim, text_dim=text_dim, structured=self.structured,
+                              reference_dim=REFERENCE_DIM if self.retrieval else 0,
+                              goal_dim=GOAL_GEOMETRY_DIM if self.goal_geometry else 0,
+                              phase_dim=self.phase_slots * len(ARM_ORDER), normalise_inputs=self.normalise_inputs,
+                              read_prior_features=self.prior_features, geometric_skip=self.geometric_skip,
+                              output_gate=self.output_gate)
+
+
+@dataclass
+class TrainConfig:
+    """`bimanualshift train`: the frozen prior, the demos, the residual's inputs and the optimisation. Every field
+    of every group is one flag (``--task``, ``--retrieval``, ``--steps``, ...); a flat config of an older run
+    still reads (``--config``)."""
+
+    prior: str = "peract_suite"  # a shipped name or a checkpoint folder
+    out: str = "runs/bimanualshift"
+    # Continual learning: an earlier BimanualShift run (or its checkpoint) whose Manager, Z and G start this run
+    # and whose memory bank entries join this task's, so earlier tasks stay retrievable.
+    init_from: str = ""
+    beta: float = 1.0  # weight of the rotation term in L_BC (Eq. 12)
+    dataset: ResidualDataConfig = field(default_factory=ResidualDataConfig)
+    model: ResidualModelConfig = field(default_factory=ResidualModelConfig)
+    optim: OptimConfig = field(default_factory=lambda: OptimConfig(steps=RESIDUAL_STEPS, lr=5e-4))
 
 
 @dataclass
@@ -246,46 +270,43 @@ def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Pat
     out = Path(cfg.out)
     out.mkdir(parents=True, exist_ok=True)
     atomic_write_json(out / "train_config.json", asdict(cfg))
-    text_encoder = make_text_encoder(cfg.text_encoder)  # the prior keeps the encoder it was pretrained with
+    text_encoder = make_text_encoder(cfg.model.text_encoder)  # the prior keeps the encoder it was pretrained with
     prior = prior if prior is not None else UnimanualPrior.from_pretrained(cfg.prior)
-    prior_step = FrozenPriorStep(prior, default_text_encoder(), use_projection=cfg.use_projection,
-                             locate_goal=cfg.goal_geometry, segmenter=cfg.segmenter,
-                             segmenter_options=segmenter_options(cfg.grounding_dino, cfg.sam))
-    paths = list_episodes(cfg.data, cfg.task)[: cfg.demos]
+    prior_step = FrozenPriorStep(prior, default_text_encoder(), use_projection=cfg.model.use_projection,
+                             locate_goal=cfg.model.goal_geometry, segmenter=cfg.model.segmenter,
+                             segmenter_options=segmenter_options(cfg.model.grounding_dino, cfg.model.sam))
+    paths = list_episodes(cfg.dataset.data, cfg.dataset.task)[: cfg.dataset.demos]
     if not paths:
-        raise FileNotFoundError(f"no bimanual demos for {cfg.task} under {cfg.data}; run "
-                                f"`bimanualshift collect --task {cfg.task} --out {cfg.data}` first")
-    rcfg = ResidualConfig(feature_dim=prior.feature_dim, text_dim=text_encoder.dim, structured=cfg.structured,
-                          reference_dim=REFERENCE_DIM if cfg.retrieval else 0,
-                          goal_dim=GOAL_GEOMETRY_DIM if cfg.goal_geometry else 0,
-                          phase_dim=cfg.phase_slots * len(ARM_ORDER), normalise_inputs=cfg.normalise_inputs,
-                          read_prior_features=cfg.prior_features, geometric_skip=cfg.geometric_skip,
-                          output_gate=cfg.output_gate)
-    earlier_state, earlier_memory = load_earlier(cfg.init_from, rcfg, cfg.retrieval) if cfg.init_from else (None, None)
-    train = residual_data(rcfg, paths, prior_step, text_encoder, "prior outputs (train)", cfg.augment_copies,
-                          cfg.augment_max_voxels, cfg.seed,
-                          build_memory=cfg.retrieval_threshold if cfg.retrieval else None, task=cfg.task,
+        raise FileNotFoundError(f"no bimanual demos for {cfg.dataset.task} under {cfg.dataset.data}; run "
+                                f"`bimanualshift collect --task {cfg.dataset.task} --out {cfg.dataset.data}` first")
+    rcfg = cfg.model.residual_config(prior.feature_dim, text_encoder.dim)
+    data, model, optim = cfg.dataset, cfg.model, cfg.optim
+    earlier_state, earlier_memory = (load_earlier(cfg.init_from, rcfg, model.retrieval) if cfg.init_from
+                                     else (None, None))
+    train = residual_data(rcfg, paths, prior_step, text_encoder, "prior outputs (train)", data.augment_copies,
+                          data.augment_max_voxels, optim.seed,
+                          build_memory=model.retrieval_threshold if model.retrieval else None, task=data.task,
                           earlier_memory=earlier_memory)
     memory = train.memory
-    val_paths = list_episodes(cfg.validation_data, cfg.task)
+    val_paths = list_episodes(cfg.dataset.validation_data, cfg.dataset.task)
     val = residual_data(rcfg, val_paths, prior_step, text_encoder, "prior outputs (val)",
                         memory=memory) if val_paths else train
-    torch.manual_seed(cfg.seed)  # here, so how the prior was obtained cannot change the residual's init
+    torch.manual_seed(cfg.optim.seed)  # here, so how the prior was obtained cannot change the residual's init
     residual = ResidualPolicy(rcfg, SkillBasis.from_verbs(text_encoder))
     if earlier_state is not None:
         residual.load_state_dict(earlier_state)  # with the earlier task's input statistics: kept, not refit
         reset_output_scale(residual)  # the earlier task's factors are chosen again for this one
     elif rcfg.normalise_inputs:
         residual.fit_normalisation(train.inputs)
-    optimizer = make_lamb(residual.parameters(), lr=cfg.lr)
-    checkpoint_meta = {"prior": cfg.prior, "use_projection": cfg.use_projection, "segmenter": cfg.segmenter,
-                       "retrieval": cfg.retrieval,
-                       "segmenter_options": segmenter_options(cfg.grounding_dino, cfg.sam),
-                       "task": cfg.task, "demos": len(paths), "train_config": asdict(cfg),
-                       "text_encoder": cfg.text_encoder}
+    optimizer = make_optimizer(cfg.optim.optimizer, residual.parameters(), lr=cfg.optim.lr)
+    checkpoint_meta = {"prior": cfg.prior, "use_projection": cfg.model.use_projection, "segmenter": cfg.model.segmenter,
+                       "retrieval": cfg.model.retrieval,
+                       "segmenter_options": segmenter_options(cfg.model.grounding_dino, cfg.model.sam),
+                       "task": cfg.dataset.task, "demos": len(paths), "train_config": asdict(cfg),
+                       "text_encoder": cfg.model.text_encoder}
 
     def step_fn(step: int, gen: torch.Generator) -> dict[str, torch.Tensor]:
-        index = torch.randint(len(train.inputs), (cfg.batch_size,), generator=gen)
+        index = torch.randint(len(train.inputs), (cfg.optim.batch_size,), generator=gen)
         return bc_loss(residual(train.inputs[index]), train.translation[index], train.rotation[index], cfg.beta)
 
     def validate(step: int) -> float:
@@ -296,7 +317,7 @@ def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Pat
         save_residual(out / "best", residual, {**checkpoint_meta, "trained_steps": step, "validation_loss": value},
                       memory)
 
-    result = run_training(out, residual, optimizer, cfg.steps, step_fn, cfg.seed, cfg.checkpoint_every,
+    result = run_training(out, residual, optimizer, optim.steps, step_fn, optim.seed, optim.checkpoint_every,
                           validate, on_best, desc="train residual")
     if (out / "best" / "model.safetensors").is_file():  # report on the checkpoint the run hands on
         residual.load_state_dict(load_safetensors(out / "best" / "model.safetensors"))

@@ -51,10 +51,41 @@ def _accepts(annotation: Any, value: Any) -> bool:
     return True
 
 
+def _nested(cls: type) -> dict[str, type]:
+    """The fields of dataclass ``cls`` that are dataclasses themselves (a nested config's groups)."""
+    hints = typing.get_type_hints(cls)
+    return {f.name: hints[f.name] for f in dataclasses.fields(cls) if dataclasses.is_dataclass(hints[f.name])}
+
+
+def route_flat_keys(cls: type, raw: dict[str, Any]) -> dict[str, Any]:
+    """``raw`` with every key that names a field of exactly one nested group moved into that group: a flat
+    config (an older run's, or keyword arguments) read as the nested one."""
+    groups = _nested(cls)
+    own = {f.name for f in dataclasses.fields(cls)}
+    out: dict[str, Any] = {}
+    moved: dict[str, dict[str, Any]] = {g: {} for g in groups}
+    for key, value in raw.items():
+        if key in own and not (key in groups and not isinstance(value, dict)):
+            out[key] = dict(value) if key in groups else value
+            continue
+        owners = [g for g, sub in groups.items() if key in {f.name for f in dataclasses.fields(sub)}]
+        if len(owners) == 1:
+            moved[owners[0]][key] = value
+        else:
+            out[key] = value  # unknown: the caller names it
+    for group, values in moved.items():
+        if values:
+            out[group] = {**(out.get(group) or {}), **values}
+    return out
+
+
 def config_from_dict(cls: type, raw: dict[str, Any], source: str | Path, ignore_unknown: bool = True) -> Any:
     """An instance of dataclass ``cls`` from ``raw``, every value checked against its field's type; lists become
-    tuples where the field holds a tuple. ``source`` (the file) is named in every error."""
+    tuples where the field holds a tuple. Nested groups are read from their own objects, or from flat keys (an
+    older, flat config). ``source`` (the file) is named in every error."""
     hints = typing.get_type_hints(cls)
+    groups = _nested(cls)
+    raw = route_flat_keys(cls, raw) if groups else raw
     names = {f.name for f in dataclasses.fields(cls) if f.init}
     unknown = sorted(set(raw) - names)
     if unknown and not ignore_unknown:
@@ -62,12 +93,21 @@ def config_from_dict(cls: type, raw: dict[str, Any], source: str | Path, ignore_
     values = {}
     for key in names & set(raw):
         value = raw[key]
+        if key in groups and isinstance(value, dict):
+            values[key] = config_from_dict(groups[key], value, f"{source} ({key})", ignore_unknown)
+            continue
         if not _accepts(hints[key], value):
             expected = getattr(hints[key], "__name__", str(hints[key]))
             raise CheckpointError(f"{source}: field {key!r} is {value!r} ({type(value).__name__}), expected "
                                   f"{expected}; correct it in that file (or re-save the checkpoint)")
         values[key] = tuple(value) if isinstance(value, list) and typing.get_origin(hints[key]) is tuple else value
     return cls(**values)
+
+
+def config_from_flat(cls: type, **values: Any) -> Any:
+    """A (nested) config from flat keyword arguments, each routed to its group and checked:
+    ``config_from_flat(TrainConfig, task="lift_ball", steps=2)``."""
+    return config_from_dict(cls, values, f"{cls.__name__} arguments", ignore_unknown=False)
 
 
 def load_safetensors(path: str | Path) -> dict[str, Any]:
