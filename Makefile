@@ -21,8 +21,9 @@ install: $(BIN)/.installed
 demo: install
 	$(BIN)/bimanualshift demo
 
+# Two pytest workers, one per core; a test file stays on one worker (its fixtures are built once there).
 test: install lint
-	$(BIN)/python -m pytest -q
+	$(BIN)/python -m pytest -q -n 2 --dist loadfile
 
 lint: install
 	$(BIN)/ruff check src tests

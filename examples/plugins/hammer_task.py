@@ -19,7 +19,10 @@ from robosuite.models.objects import HammerObject
 from bimanualshift.sim.layout import TABLE_TOP_Z
 from bimanualshift.sim.task import ArmAction, Keyframe, SimHandle, Task, down_quat, register_task
 
-HAMMER = HammerObject(name="hammer")  # bodies and geoms named hammer_*, its free joint hammer_joint0
+# Bodies and geoms named hammer_*, its free joint hammer_joint0. robosuite draws the hammer's sizes, density and
+# friction from its rng when the object is built: a fixed seed keeps them the same in every (worker) process, so an
+# episode depends on its seed alone.
+HAMMER = HammerObject(name="hammer", rng=np.random.default_rng(0))
 REGION = ((-0.05, 0.10), (-0.12, 0.12))  # where the hammer lies (world x, y, metres)
 
 

@@ -85,3 +85,20 @@ def test_every_committed_result_files_command_still_parses() -> None:
         argv = shlex.split(command)[1:]
         fn, options = parse_command(argv[0], argv[1:])
         assert callable(fn) and options is not None, command
+
+
+def test_a_saved_config_reproduces_the_run_and_flags_override_it(tmp_path) -> None:  # noqa: ANN001
+    import json
+    from dataclasses import asdict
+
+    from bimanualshift.cli.dispatch import parse_command
+    from bimanualshift.training.residual_trainer import TrainConfig
+    from bimanualshift.utils.config_files import config_from_flat
+
+    saved = config_from_flat(TrainConfig, task="lift_ball", steps=7, retrieval=True, lr=0.01)
+    path = tmp_path / "train_config.json"
+    path.write_text(json.dumps(asdict(saved)))  # what `train` writes beside its run
+    _, cfg = parse_command("train", ["--config", str(path)])
+    assert cfg == saved
+    _, cfg = parse_command("train", ["--config", str(path), "--steps", "9", "--retrieval", "false"])
+    assert cfg.optim.steps == 9 and not cfg.model.retrieval and cfg.dataset.task == "lift_ball"

@@ -23,7 +23,7 @@ R = TypeVar("R")
 
 EXECUTORS = ("local", "ray")
 # Environment a Ray worker needs to render and load models the way this process does.
-RAY_ENV_VARS = ("MUJOCO_GL", "PYOPENGL_PLATFORM", "HF_HUB_OFFLINE", "BIMANUALSHIFT_CACHE")
+RAY_ENV_VARS = ("MUJOCO_GL", "PYOPENGL_PLATFORM", "HF_HUB_OFFLINE", "BIMANUALSHIFT_CACHE", "BIMANUALSHIFT_PLUGINS")
 
 
 def run_jobs(fn: Callable[[J], R], jobs: Iterable[J], workers: int = 1, desc: str = "jobs", chunksize: int = 2,
