@@ -135,7 +135,8 @@ def main() -> None:
                          **({"target": "<= 1"} if entries == 100_000 else {})})
     seeds = {"test": [seed]}
     if args.train_data:
-        from bimanualshift.training.residual_trainer import TrainConfig, train_residual
+        from bimanualshift.training.configs import TrainConfig
+        from bimanualshift.training.residual_trainer import train_residual
         from bimanualshift.utils.config_files import config_from_flat
 
         with tempfile.TemporaryDirectory() as out:

@@ -54,7 +54,8 @@ def _residual_method(name: str, description: str, **switches: Any) -> MethodSpec
     """BimanualShift trained with ``switches`` (TrainConfig fields) on top of the request."""
 
     def train(request: TrainRequest) -> Path:
-        from bimanualshift.training.residual_trainer import TrainConfig, train_residual
+        from bimanualshift.training.configs import TrainConfig
+        from bimanualshift.training.residual_trainer import train_residual
         from bimanualshift.utils.config_files import config_from_flat
 
         cfg = config_from_flat(TrainConfig, task=request.task, prior=request.prior, data=request.data,

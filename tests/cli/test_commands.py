@@ -92,7 +92,7 @@ def test_a_saved_config_reproduces_the_run_and_flags_override_it(tmp_path) -> No
     from dataclasses import asdict
 
     from bimanualshift.cli.dispatch import parse_command
-    from bimanualshift.training.residual_trainer import TrainConfig
+    from bimanualshift.training.configs import TrainConfig
     from bimanualshift.utils.config_files import config_from_flat
 
     saved = config_from_flat(TrainConfig, task="lift_ball", steps=7, retrieval=True, lr=0.01)

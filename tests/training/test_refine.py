@@ -18,8 +18,9 @@ from bimanualshift.memory.bank import MemoryBank
 from bimanualshift.methods.bimanualshift import MEMORY_FILE, load_bimanualshift
 from bimanualshift.sim.env import ManipulationEnv
 from bimanualshift.training.checkpoint import latest_checkpoint
-from bimanualshift.training.refine import RefineConfig, expert_actions, refine, run_policy, strays
-from bimanualshift.training.residual_trainer import TrainConfig, train_residual
+from bimanualshift.training.configs import RefineConfig, TrainConfig
+from bimanualshift.training.refine import expert_actions, refine, run_policy, strays
+from bimanualshift.training.residual_trainer import train_residual
 from bimanualshift.utils.config_files import config_from_flat
 
 

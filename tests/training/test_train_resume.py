@@ -16,8 +16,9 @@ from bimanualshift.priors import UnimanualPrior
 from bimanualshift.rollout.loop import rollout
 from bimanualshift.sim.env import ManipulationEnv
 from bimanualshift.training.checkpoint import latest_checkpoint
-from bimanualshift.training.pretrain import PretrainConfig, pretrain
-from bimanualshift.training.residual_trainer import TrainConfig, train_residual
+from bimanualshift.training.configs import PretrainConfig, TrainConfig
+from bimanualshift.training.pretrain import pretrain
+from bimanualshift.training.residual_trainer import train_residual
 from bimanualshift.utils.config_files import config_from_flat
 
 
@@ -102,7 +103,7 @@ def test_residual_training_resumes_keeps_prior_frozen_and_evaluates(demo_root: P
     assert torch.equal(policy.residual.output_scale, torch.tensor([gate["translation_scale"], gate["rotation_scale"]]))
     assert json.loads((best / "config.json").read_text())["output_scale"]["translation_scale"] == gate[
         "translation_scale"]
-    from bimanualshift.demo import residual_summary
+    from bimanualshift.demo.run import residual_summary
 
     assert residual_summary(tmp_path / "a")["output_gate"] == gate  # the demo's result file reports it
     env = ManipulationEnv("push_two_buttons", image_size=64)

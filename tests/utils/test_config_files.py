@@ -53,8 +53,7 @@ def test_the_command_line_prints_one_error_line_and_exits_2(prior_dir: Path,
 def test_a_flat_config_of_an_older_run_reads_as_the_nested_one() -> None:
     from dataclasses import asdict
 
-    from bimanualshift.training.pretrain import PretrainConfig
-    from bimanualshift.training.residual_trainer import TrainConfig
+    from bimanualshift.training.configs import PretrainConfig, TrainConfig
     from bimanualshift.utils.config_files import config_from_dict
 
     flat = {"task": "lift_ball", "data": "d", "steps": 7, "retrieval": True, "prior": "p", "lr": 0.1, "beta": 2.0}

@@ -6,6 +6,6 @@ from bimanualshift.demo import DemoConfig
 
 
 def demo(cfg: DemoConfig) -> None:
-    from bimanualshift.demo import run_demo
+    from bimanualshift.demo.run import run_demo
 
     run_demo(cfg)

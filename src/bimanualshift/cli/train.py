@@ -7,9 +7,7 @@ from typing import Annotated
 
 import tyro
 
-from bimanualshift.training.pretrain import PretrainConfig
-from bimanualshift.training.refine import RefineConfig
-from bimanualshift.training.residual_trainer import TrainConfig
+from bimanualshift.training.configs import PretrainConfig, RefineConfig, TrainConfig
 
 
 def pretrain(cfg: PretrainConfig) -> None:

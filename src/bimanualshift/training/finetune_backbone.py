@@ -29,12 +29,12 @@ from bimanualshift.perception.arm_samples import build_arm_samples
 from bimanualshift.perception.observation import ArmObservationBuilder
 from bimanualshift.priors.base import UnimanualPrior
 from bimanualshift.training.augment import Se3Augmentation
+from bimanualshift.training.configs import PriorDataConfig
 from bimanualshift.training.distributed import init_distributed, loss_module
 from bimanualshift.training.loop import run_training
 from bimanualshift.training.optim import make_optimizer
 from bimanualshift.training.pretrain import (
     PriorBatches,
-    PriorDataConfig,
     global_batch_shard,
     translation_accuracy,
 )

@@ -4,7 +4,6 @@
 from __future__ import annotations
 
 from collections.abc import Iterable
-from dataclasses import dataclass
 
 import torch
 import torch_optimizer
@@ -21,16 +20,6 @@ def make_lamb(params: Iterable[torch.nn.Parameter], lr: float = 5e-4, weight_dec
 OPTIMIZERS = ("lamb", "adamw")
 
 
-@dataclass
-class OptimConfig:
-    """How a network is optimised: steps, batch, learning rate, optimiser, checkpoints and the run's seed."""
-
-    steps: int = 1500
-    batch_size: int = 4  # the global batch (split over torchrun's processes)
-    lr: float = 1e-3
-    optimizer: str = "lamb"  # lamb (PerAct, the paper) or adamw (Diffusion Policy)
-    checkpoint_every: int = 250
-    seed: int = 0
 
 
 def make_optimizer(name: str, params: Iterable[torch.nn.Parameter], lr: float) -> torch.optim.Optimizer:

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import json
 import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict
 from pathlib import Path
 
 import numpy as np
@@ -27,41 +27,11 @@ from bimanualshift.priors.base import PRIORS, prior_type
 from bimanualshift.priors.base import build_prior as build_prior_network
 from bimanualshift.sim.task import resolve_task_names, task_names
 from bimanualshift.training.augment import Se3Augmentation, transform_points, transform_quats, transform_voxels
+from bimanualshift.training.configs import PretrainConfig
 from bimanualshift.training.distributed import Distributed, init_distributed, loss_module
 from bimanualshift.training.loop import run_training
-from bimanualshift.training.optim import OptimConfig, make_optimizer
+from bimanualshift.training.optim import make_optimizer
 from bimanualshift.utils.io import atomic_write_json, atomic_write_text
-
-
-@dataclass
-class PriorDataConfig:
-    """The single-arm demos a prior learns from, and how they are augmented."""
-
-    tasks: list[str] = field(default_factory=lambda: ["unimanual"])  # task names or the group 'unimanual'
-    data: str = "data/unimanual"
-    validation_data: str = "data/unimanual_val"
-    augment_translation_m: float = 0.04  # SE(3) augmentation: horizontal shift ...
-    augment_yaw_deg: float = 15.0  # ... and yaw about the grid's vertical axis; 0 and 0 turn it off
-
-
-@dataclass
-class PriorNetworkConfig:
-    """Which network: a registered prior type, a named size, and field overrides on top."""
-
-    prior: str = "peract"  # a registered prior type: peract, dp (= diffusion) or act
-    size: str = "default"  # a named model size from bimanualshift.configs (default, debug, ...)
-    model: dict = field(default_factory=dict)  # overrides of the prior's config fields, e.g. {"dim": 64}
-
-
-@dataclass
-class PretrainConfig:
-    """`bimanualshift pretrain`: data, network and optimisation of a single-arm prior. Every field of every group
-    is one flag (``--prior``, ``--tasks``, ``--steps``, ...); a flat config of an older run still reads."""
-
-    out: str = "runs/prior"
-    dataset: PriorDataConfig = field(default_factory=PriorDataConfig)
-    network: PriorNetworkConfig = field(default_factory=PriorNetworkConfig)
-    optim: OptimConfig = field(default_factory=lambda: OptimConfig(steps=3000, lr=1e-3))
 
 
 def build_prior(cfg: PretrainConfig) -> UnimanualPrior:

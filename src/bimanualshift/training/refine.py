@@ -38,29 +38,12 @@ from bimanualshift.methods.bimanualshift import MEMORY_FILE, BimanualShift, load
 from bimanualshift.residual.output_gate import choose_output_scale, reset_output_scale
 from bimanualshift.rollout.loop import rollout
 from bimanualshift.sim.env import ManipulationEnv
+from bimanualshift.training.configs import RefineConfig, TrainConfig
 from bimanualshift.training.loop import run_training
 from bimanualshift.training.optim import make_lamb
-from bimanualshift.training.residual_trainer import ResidualData, TrainConfig, bc_loss, residual_data
+from bimanualshift.training.residual_trainer import ResidualData, bc_loss, residual_data
 from bimanualshift.utils.config_files import config_from_dict, load_safetensors, read_json_file
 from bimanualshift.utils.io import atomic_write_json, atomic_writer
-
-
-@dataclass
-class RefineConfig:
-    checkpoint: str = "runs/bimanualshift/best"  # a trained BimanualShift (from `bimanualshift train`)
-    out: str = "runs/refine"
-    episodes: int = 20  # training scenes rolled out
-    start: int = 0  # first train-split seed offset (0: the demos' own scenes)
-    max_keyframes: int = 0  # episode length limit of the policy's own rollouts (0: the task's)
-    tolerance_m: float = 0.03  # an arm strays when its position is this far from the corrector's ...
-    tolerance_deg: float = 20.0  # ... or its orientation this far, or its gripper state differs
-    lambda_corr: float = 1.0  # weight of L_corr in L_total (Eq. 13)
-    steps: int = 500
-    batch_size: int = 4
-    lr: float = 5e-4
-    beta: float = 1.0
-    checkpoint_every: int = 100
-    seed: int = 0
 
 
 @dataclass

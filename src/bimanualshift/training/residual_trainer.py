@@ -9,13 +9,12 @@ from __future__ import annotations
 
 import json
 import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
 import torch
 
-from bimanualshift.configs import RESIDUAL_STEPS
 from bimanualshift.data.episode import list_episodes
 from bimanualshift.encoders.text import TextEncoder, default_text_encoder, make_text_encoder
 from bimanualshift.geometry.frames import rotation_difference
@@ -24,82 +23,17 @@ from bimanualshift.memory.reference import REFERENCE_DIM, episode_key, reference
 from bimanualshift.methods.bimanualshift import MEMORY_FILE, save_residual
 from bimanualshift.methods.prior_step import FrozenPriorStep
 from bimanualshift.perception.arm_samples import ArmSamples, build_arm_samples
-from bimanualshift.perception.goal_geometry import GOAL_GEOMETRY_DIM, shift_goal_geometry
+from bimanualshift.perception.goal_geometry import shift_goal_geometry
 from bimanualshift.priors.base import UnimanualPrior
 from bimanualshift.residual.manager import ResidualConfig, ResidualPolicy, manager_input_rows
 from bimanualshift.residual.output_gate import choose_output_scale, reset_output_scale
 from bimanualshift.residual.skills import SkillBasis
 from bimanualshift.training.augment import random_shift, shift_voxels
+from bimanualshift.training.configs import ARM_ORDER, TrainConfig
 from bimanualshift.training.loop import run_training
-from bimanualshift.training.optim import OptimConfig, make_optimizer
+from bimanualshift.training.optim import make_optimizer
 from bimanualshift.utils.config_files import load_safetensors, read_json_file
 from bimanualshift.utils.io import atomic_write_json
-
-ARM_ORDER = ("left", "right")  # the Manager's arm one-hot; single-arm data counts as "left"
-
-
-@dataclass
-class ResidualDataConfig:
-    """The bimanual demos the residual learns from."""
-
-    task: str = "push_two_buttons"
-    data: str = "data/bimanual"
-    validation_data: str = "data/bimanual_val"
-    demos: int = 20
-    augment_copies: int = 0  # shifted copies of every demo keyframe, each through the frozen prior
-    augment_max_voxels: int = 2
-
-
-@dataclass
-class ResidualModelConfig:
-    """What the residual reads, and how the frozen prior's observation is made."""
-
-    use_projection: bool = True
-    segmenter: str = "simulator"  # simulator | grounded_sam | degraded-mild | degraded-strong
-    grounding_dino: str = ""  # grounded_sam only: local save_pretrained folder or hub id (empty: the default)
-    sam: str = ""  # grounded_sam only: local folder or hub id of SAM (empty: the default)
-    structured: bool = True
-    retrieval: bool = False  # the memory bank's temporal reference as a Manager input (Eq. 8-9)
-    retrieval_threshold: float = 0.5  # cosine similarity below which no reference is used
-    text_encoder: str = "minilm"  # the residual's instruction / skill-verb encoder: minilm | clip | clip:<dir>
-    # The goal's location (centroid and extent in the arm's frame, from the projection's goal segmentation) as a
-    # Manager input; with --use-projection false the goal is still segmented for it, only the masking is off.
-    goal_geometry: bool = True
-    phase_slots: int = 25  # keyframe slots per arm of the (arm, keyframe) one-hot Manager input (0: none)
-    normalise_inputs: bool = True  # standardise the Manager's inputs with the training inputs' statistics
-    # The Manager's trunk reads the frozen prior's pooled features too; off: they let it memorise the demos.
-    prior_features: bool = False
-    geometric_skip: bool = True  # a linear path from goal, proprio, prior action and phase into h
-    # After training, scale the residual's translation and rotation by factors chosen on the validation demos
-    # (residual/output_gate.py): the residual is turned down where the prior alone places keyframes better.
-    output_gate: bool = True
-
-    def residual_config(self, feature_dim: int, text_dim: int) -> ResidualConfig:
-        """The network's config: the one place these switches become the residual's widths and flags
-        (``ResidualConfig``'s own defaults are what a checkpoint written before a field existed meant)."""
-        return ResidualConfig(feature_dim=feature_dim, text_dim=text_dim, structured=self.structured,
-                              reference_dim=REFERENCE_DIM if self.retrieval else 0,
-                              goal_dim=GOAL_GEOMETRY_DIM if self.goal_geometry else 0,
-                              phase_dim=self.phase_slots * len(ARM_ORDER), normalise_inputs=self.normalise_inputs,
-                              read_prior_features=self.prior_features, geometric_skip=self.geometric_skip,
-                              output_gate=self.output_gate)
-
-
-@dataclass
-class TrainConfig:
-    """`bimanualshift train`: the frozen prior, the demos, the residual's inputs and the optimisation. Every field
-    of every group is one flag (``--task``, ``--retrieval``, ``--steps``, ...); a flat config of an older run
-    still reads (``--config``)."""
-
-    prior: str = "peract_suite"  # a shipped name or a checkpoint folder
-    out: str = "runs/bimanualshift"
-    # Continual learning: an earlier BimanualShift run (or its checkpoint) whose Manager, Z and G start this run
-    # and whose memory bank entries join this task's, so earlier tasks stay retrievable.
-    init_from: str = ""
-    beta: float = 1.0  # weight of the rotation term in L_BC (Eq. 12)
-    dataset: ResidualDataConfig = field(default_factory=ResidualDataConfig)
-    model: ResidualModelConfig = field(default_factory=ResidualModelConfig)
-    optim: OptimConfig = field(default_factory=lambda: OptimConfig(steps=RESIDUAL_STEPS, lr=5e-4))
 
 
 @dataclass

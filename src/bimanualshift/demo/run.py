@@ -1,11 +1,4 @@
-"""`bimanualshift demo`: the whole method end to end on push_two_buttons, on a laptop CPU.
-
-1. collect bimanual expert demos (train + validation seeds) in simulation;
-2. load the shipped single-arm prior (or pretrain one on freshly collected single-arm demos);
-3. train the residual branch (Manager, Z, G) with the prior and projection frozen;
-4. evaluate BimanualShift and the frozen-prior-per-arm baseline on held-out test seeds;
-5. print a success table with 95 % CIs, write results/demo/summary.json and one image strip per method.
-"""
+"""Running the demo: collect, the prior, train the residual, evaluate, write the results."""
 
 from __future__ import annotations
 
@@ -13,14 +6,14 @@ import json
 import shlex
 import sys
 import time
-from dataclasses import asdict, dataclass, replace
+from dataclasses import asdict, replace
 from pathlib import Path
 
 import torch
 
-from bimanualshift.configs import RESIDUAL_STEPS
 from bimanualshift.data.collect import collect
 from bimanualshift.data.seeds import split_seeds
+from bimanualshift.demo import SHIPPED_PRIOR, DemoConfig
 from bimanualshift.encoders.text import default_text_encoder
 from bimanualshift.evaluation.bench import BenchJob, run_bench_episode
 from bimanualshift.evaluation.media import write_strip, write_video
@@ -31,26 +24,10 @@ from bimanualshift.methods.frozen_prior import FrozenPriorPerArm
 from bimanualshift.registry import TrainRequest
 from bimanualshift.rollout.loop import EpisodeRecord, rollout
 from bimanualshift.sim.env import ManipulationEnv
-from bimanualshift.training.pretrain import PretrainConfig, PriorDataConfig, pretrain
-from bimanualshift.training.residual_trainer import ResidualDataConfig, TrainConfig, train_residual
+from bimanualshift.training.configs import PretrainConfig, PriorDataConfig, ResidualDataConfig, TrainConfig
+from bimanualshift.training.pretrain import pretrain
+from bimanualshift.training.residual_trainer import train_residual
 from bimanualshift.utils.workers import run_jobs
-
-SHIPPED_PRIOR = Path(__file__).resolve().parents[2] / "checkpoints" / "peract_suite"
-
-
-@dataclass
-class DemoConfig:
-    task: str = "push_two_buttons"
-    demos: int = 20
-    validation_demos: int = 5
-    test_episodes: int = 20
-    max_keyframes: int = 6  # the expert needs 3; failing rollouts stop at twice that
-    residual_steps: int = RESIDUAL_STEPS
-    prior: str = str(SHIPPED_PRIOR)
-    workdir: str = "runs/demo"
-    results: str = "results/demo"
-    workers: int = 2
-    seed: int = 0
 
 
 def ensure_prior(cfg: DemoConfig) -> str:

@@ -1,0 +1,145 @@
+"""The typed configs of the training commands (`pretrain`, `train`, `refine`), nested by what they set: the data,
+the network, the optimisation. Nothing heavy is imported here, so `--help` answers at once; every field of every
+group is one command-line flag (the group's name is not part of it), and a flat config of an older run still
+reads (``utils.config_files.config_from_dict``)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+from bimanualshift.configs import RESIDUAL_STEPS
+
+if TYPE_CHECKING:
+    from bimanualshift.residual.manager import ResidualConfig
+
+ARM_ORDER = ("left", "right")  # the Manager's arm one-hot; single-arm data counts as "left"
+
+
+@dataclass
+class OptimConfig:
+    """How a network is optimised: steps, batch, learning rate, optimiser, checkpoints and the run's seed."""
+
+    steps: int = 1500
+    batch_size: int = 4  # the global batch (split over torchrun's processes)
+    lr: float = 1e-3
+    optimizer: str = "lamb"  # lamb (PerAct, the paper) or adamw (Diffusion Policy)
+    checkpoint_every: int = 250
+    seed: int = 0
+
+
+@dataclass
+class PriorDataConfig:
+    """The single-arm demos a prior learns from, and how they are augmented."""
+
+    tasks: list[str] = field(default_factory=lambda: ["unimanual"])  # task names or the group 'unimanual'
+    data: str = "data/unimanual"
+    validation_data: str = "data/unimanual_val"
+    augment_translation_m: float = 0.04  # SE(3) augmentation: horizontal shift ...
+    augment_yaw_deg: float = 15.0  # ... and yaw about the grid's vertical axis; 0 and 0 turn it off
+
+
+@dataclass
+class PriorNetworkConfig:
+    """Which network: a registered prior type, a named size, and field overrides on top."""
+
+    prior: str = "peract"  # a registered prior type: peract, dp (= diffusion) or act
+    size: str = "default"  # a named model size from bimanualshift.configs (default, debug, ...)
+    model: dict = field(default_factory=dict)  # overrides of the prior's config fields, e.g. {"dim": 64}
+
+
+@dataclass
+class PretrainConfig:
+    """`bimanualshift pretrain`: data, network and optimisation of a single-arm prior. Every field of every group
+    is one flag (``--prior``, ``--tasks``, ``--steps``, ...); a flat config of an older run still reads."""
+
+    out: str = "runs/prior"
+    dataset: PriorDataConfig = field(default_factory=PriorDataConfig)
+    network: PriorNetworkConfig = field(default_factory=PriorNetworkConfig)
+    optim: OptimConfig = field(default_factory=lambda: OptimConfig(steps=3000, lr=1e-3))
+
+
+@dataclass
+class ResidualDataConfig:
+    """The bimanual demos the residual learns from."""
+
+    task: str = "push_two_buttons"
+    data: str = "data/bimanual"
+    validation_data: str = "data/bimanual_val"
+    demos: int = 20
+    augment_copies: int = 0  # shifted copies of every demo keyframe, each through the frozen prior
+    augment_max_voxels: int = 2
+
+
+@dataclass
+class ResidualModelConfig:
+    """What the residual reads, and how the frozen prior's observation is made."""
+
+    use_projection: bool = True
+    segmenter: str = "simulator"  # simulator | grounded_sam | degraded-mild | degraded-strong
+    grounding_dino: str = ""  # grounded_sam only: local save_pretrained folder or hub id (empty: the default)
+    sam: str = ""  # grounded_sam only: local folder or hub id of SAM (empty: the default)
+    structured: bool = True
+    retrieval: bool = False  # the memory bank's temporal reference as a Manager input (Eq. 8-9)
+    retrieval_threshold: float = 0.5  # cosine similarity below which no reference is used
+    text_encoder: str = "minilm"  # the residual's instruction / skill-verb encoder: minilm | clip | clip:<dir>
+    # The goal's location (centroid and extent in the arm's frame, from the projection's goal segmentation) as a
+    # Manager input; with --use-projection false the goal is still segmented for it, only the masking is off.
+    goal_geometry: bool = True
+    phase_slots: int = 25  # keyframe slots per arm of the (arm, keyframe) one-hot Manager input (0: none)
+    normalise_inputs: bool = True  # standardise the Manager's inputs with the training inputs' statistics
+    # The Manager's trunk reads the frozen prior's pooled features too; off: they let it memorise the demos.
+    prior_features: bool = False
+    geometric_skip: bool = True  # a linear path from goal, proprio, prior action and phase into h
+    # After training, scale the residual's translation and rotation by factors chosen on the validation demos
+    # (residual/output_gate.py): the residual is turned down where the prior alone places keyframes better.
+    output_gate: bool = True
+
+    def residual_config(self, feature_dim: int, text_dim: int) -> ResidualConfig:
+        """The network's config: the one place these switches become the residual's widths and flags
+        (``ResidualConfig``'s own defaults are what a checkpoint written before a field existed meant)."""
+        from bimanualshift.memory.reference import REFERENCE_DIM
+        from bimanualshift.perception.goal_geometry import GOAL_GEOMETRY_DIM
+        from bimanualshift.residual.manager import ResidualConfig
+
+        return ResidualConfig(feature_dim=feature_dim, text_dim=text_dim, structured=self.structured,
+                              reference_dim=REFERENCE_DIM if self.retrieval else 0,
+                              goal_dim=GOAL_GEOMETRY_DIM if self.goal_geometry else 0,
+                              phase_dim=self.phase_slots * len(ARM_ORDER), normalise_inputs=self.normalise_inputs,
+                              read_prior_features=self.prior_features, geometric_skip=self.geometric_skip,
+                              output_gate=self.output_gate)
+
+
+@dataclass
+class TrainConfig:
+    """`bimanualshift train`: the frozen prior, the demos, the residual's inputs and the optimisation. Every field
+    of every group is one flag (``--task``, ``--retrieval``, ``--steps``, ...); a flat config of an older run
+    still reads (``--config``)."""
+
+    prior: str = "peract_suite"  # a shipped name or a checkpoint folder
+    out: str = "runs/bimanualshift"
+    # Continual learning: an earlier BimanualShift run (or its checkpoint) whose Manager, Z and G start this run
+    # and whose memory bank entries join this task's, so earlier tasks stay retrievable.
+    init_from: str = ""
+    beta: float = 1.0  # weight of the rotation term in L_BC (Eq. 12)
+    dataset: ResidualDataConfig = field(default_factory=ResidualDataConfig)
+    model: ResidualModelConfig = field(default_factory=ResidualModelConfig)
+    optim: OptimConfig = field(default_factory=lambda: OptimConfig(steps=RESIDUAL_STEPS, lr=5e-4))
+
+
+@dataclass
+class RefineConfig:
+    checkpoint: str = "runs/bimanualshift/best"  # a trained BimanualShift (from `bimanualshift train`)
+    out: str = "runs/refine"
+    episodes: int = 20  # training scenes rolled out
+    start: int = 0  # first train-split seed offset (0: the demos' own scenes)
+    max_keyframes: int = 0  # episode length limit of the policy's own rollouts (0: the task's)
+    tolerance_m: float = 0.03  # an arm strays when its position is this far from the corrector's ...
+    tolerance_deg: float = 20.0  # ... or its orientation this far, or its gripper state differs
+    lambda_corr: float = 1.0  # weight of L_corr in L_total (Eq. 13)
+    steps: int = 500
+    batch_size: int = 4
+    lr: float = 5e-4
+    beta: float = 1.0
+    checkpoint_every: int = 100
+    seed: int = 0
