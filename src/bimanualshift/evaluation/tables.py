@@ -95,6 +95,24 @@ def generic_table(result: dict[str, Any]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def coverage_table(result: dict[str, Any]) -> str:
+    """Arm-frame coverage: each bimanual goal object's x / y / yaw range in each arm's frame against its
+    single-arm task's, and the share of bimanual poses inside."""
+
+    def span(r: list[list[float]] | None, i: int, scale: float = 100.0) -> str:
+        return "–" if r is None else f"{scale * r[i][0]:.0f}…{scale * r[i][1]:.0f}"
+
+    lines = ["| bimanual task | object | arm | x (cm) | y (cm) | yaw (°) | single-arm task | x (cm) | y (cm) | yaw (°) "
+             "| inside |", "|---|---|---|---|---|---|---|---|---|---|---|"]
+    deg = 180 / 3.141592653589793
+    for r in result["rows"]:
+        b, s = r["bimanual_range"], r["single_arm_range"]
+        inside = "no single-arm skill" if r["inside"] is None else f"{100 * r['inside']:.0f} %"
+        lines.append(f"| {r['task']} | {r['obj']} | {r['arm']} | {span(b, 0)} | {span(b, 1)} | {span(b, 2, deg)} | "
+                     f"{r['single_arm_task'] or '–'} | {span(s, 0)} | {span(s, 1)} | {span(s, 2, deg)} | {inside} |")
+    return "\n".join([*lines, "", _footer(result)]) + "\n"
+
+
 def sim_profile_table(result: dict[str, Any]) -> str:
     """Per task, where a step's and a keyframe's time goes, before and after a change side by side."""
     by_task: dict[str, dict[str, dict[str, Any]]] = {}
@@ -135,6 +153,8 @@ def table_for(result: dict[str, Any]) -> str:
         return projection_quality_table(result)
     if "bimanual" in first:
         return experts_table(result)
+    if "single_arm_task" in first:
+        return coverage_table(result)
     if "control_step_ms" in first:
         return sim_profile_table(result)
     if "method" in first and "success" in first:
