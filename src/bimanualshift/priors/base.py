@@ -8,6 +8,8 @@ residual Manager consumes. Any single-arm policy can serve BimanualShift by subc
 * ``compute_loss(inputs, actions, generator) -> {"total": ..., ...}`` -- its own training objective on
   continuous arm-frame action targets (``position`` (B, H, 3), ``quat`` (B, H, 4), ``gripper_open`` and
   ``ignore_collisions`` (B, H)), so one pretraining loop and one augmentation serve every prior;
+* ``local_features(voxels, proprio, text, points)`` -- its features at arm-frame points (``local_feature_dim``
+  wide), and ``PriorOutput.logits`` -- its action distribution before decoding, where it has one;
 * ``feature_dim``, ``action_horizon`` (H), ``reset()`` (between episodes), ``freeze()``,
   ``set_normalization(positions)`` (statistics kept as buffers, saved with the weights).
 
@@ -42,6 +44,10 @@ class PriorOutput:
     ignore_collisions: torch.Tensor  # (B,) probability
     features: torch.Tensor  # (B, F) visual features for the residual Manager
     chunk: torch.Tensor | None = None  # (B, H, 8) the next H keyframe actions, for priors that predict chunks
+    # The action distribution before decoding, for priors that have one (PerAct-style: ``translation`` (B, S^3)
+    # heat-map logits over the arm-frame voxels, ``rotation`` (B, 3, bins), ``gripper`` and ``collision`` (B, 2)):
+    # what a residual in action space re-weights. None for priors that sample their actions.
+    logits: dict[str, torch.Tensor] | None = None
 
     def base_action(self) -> torch.Tensor:
         """(B, 8) position, quaternion and gripper: the prior's own action as the Manager sees it."""
@@ -78,6 +84,17 @@ class UnimanualPrior(nn.Module):
 
     def predict(self, voxels: torch.Tensor, proprio: torch.Tensor, text: torch.Tensor) -> PriorOutput:
         raise NotImplementedError
+
+    @property
+    def local_feature_dim(self) -> int:
+        """Width of ``local_features``; 0 for a prior that has no spatial features."""
+        return 0
+
+    def local_features(self, voxels: torch.Tensor, proprio: torch.Tensor, text: torch.Tensor,
+                       points: torch.Tensor) -> torch.Tensor:
+        """(B, local_feature_dim) the prior's features at arm-frame points (B, 3): what it computed about that
+        place in the scene (e.g. where its own action or the goal is), for the residual's Manager."""
+        raise NotImplementedError(f"{type(self).__name__} exposes no local features (local_feature_dim is 0)")
 
     def compute_loss(self, inputs: tuple[torch.Tensor, ...], actions: dict[str, torch.Tensor],
                      generator: torch.Generator | None = None) -> dict[str, torch.Tensor]:

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numpy as np
 import torch
 from torch import nn
 
@@ -112,6 +113,20 @@ class PointCloudChunkPrior(UnimanualPrior):
     @property
     def action_horizon(self) -> int:
         return self.config.horizon
+
+    @property
+    def local_feature_dim(self) -> int:
+        return self.config.point_dim
+
+    def local_features(self, voxels: torch.Tensor, proprio: torch.Tensor, text: torch.Tensor,
+                       points: torch.Tensor) -> torch.Tensor:
+        """The point encoder's cell token (max-pooled point features of one cells^3 cell) holding each point."""
+        cells, _ = self.points(voxels.float())  # (B, cells^3, point_dim)
+        index = torch.as_tensor(self.grid.point_to_index(points.detach().cpu().numpy().astype(np.float64)))
+        n = self.points.cells
+        cell = (index * n // self.config.voxel_size).long()
+        flat = (cell[:, 0] * n + cell[:, 1]) * n + cell[:, 2]
+        return cells[torch.arange(len(flat)), flat]
 
     def set_normalization(self, positions: torch.Tensor) -> None:
         fit_position_range(self, positions)

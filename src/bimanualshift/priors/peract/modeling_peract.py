@@ -88,9 +88,26 @@ class PerActPrior(UnimanualPrior):
         xyz = lower + (idx + 0.5) * torch.as_tensor(self.grid.voxel_size)
         return torch.cat([xyz, values[..., None]], dim=-1)
 
-    def forward(self, voxels: torch.Tensor, proprio: torch.Tensor, text: torch.Tensor
+    @property
+    def local_feature_dim(self) -> int:
+        return STEM + self.config.dim
+
+    def local_features(self, voxels: torch.Tensor, proprio: torch.Tensor, text: torch.Tensor,
+                       points: torch.Tensor) -> torch.Tensor:
+        """The full-resolution stem and the decoded patch grid, trilinearly sampled at arm-frame points (B, 3)."""
+        out = self.forward(voxels, proprio, text, keep_maps=True)
+        lower = torch.as_tensor(self.grid.lower, dtype=torch.float32)
+        upper = torch.as_tensor(self.grid.upper, dtype=torch.float32)
+        unit = 2 * (points.float() - lower) / (upper - lower) - 1  # [-1, 1] per axis (x, y, z)
+        # grid_sample reads (x, y, z) as (W, H, D); the maps are (D, H, W) = (x, y, z) index order: flip.
+        where = unit.flip(-1)[:, None, None, None, :]  # (B, 1, 1, 1, 3)
+        sampled = [F.grid_sample(m, where, align_corners=False).flatten(1) for m in (out["stem"], out["decoded"])]
+        return torch.cat(sampled, dim=-1)
+
+    def forward(self, voxels: torch.Tensor, proprio: torch.Tensor, text: torch.Tensor, keep_maps: bool = False
                 ) -> dict[str, torch.Tensor]:
-        """voxels (B, 4, S, S, S), proprio (B, proprio_dim + 1) with the keyframe fraction last, text (B, T)."""
+        """voxels (B, 4, S, S, S), proprio (B, proprio_dim + 1) with the keyframe fraction last, text (B, T).
+        ``keep_maps`` adds the spatial maps ``stem`` (B, STEM, S, S, S) and ``decoded`` (B, dim, P, P, P)."""
         c = self.config
         b = voxels.shape[0]
         x = torch.cat([voxels, self.coords.expand(b, -1, -1, -1, -1)], dim=1)
@@ -117,13 +134,16 @@ class PerActPrior(UnimanualPrior):
         logits = self.global_head(torch.cat([features, at_stem], dim=-1))
         features = torch.cat([features, self.heatmap_peaks(heatmap.detach()).flatten(1)], dim=-1)
         r = c.rotation_bins
-        return {
+        out = {
             "translation": heatmap,
             "rotation": logits[:, : 3 * r].reshape(b, 3, r),
             "gripper": logits[:, 3 * r : 3 * r + 2],
             "collision": logits[:, 3 * r + 2 :],
             "features": features,
         }
+        if keep_maps:
+            out["stem"], out["decoded"] = stem, decoded.transpose(1, 2).reshape(b, c.dim, p, p, p)
+        return out
 
     def decode_actions(self, out: dict[str, torch.Tensor]) -> PriorOutput:
         c = self.config
@@ -137,7 +157,7 @@ class PerActPrior(UnimanualPrior):
         return PriorOutput(
             position=position, quat=quat,
             gripper_open=out["gripper"].softmax(-1)[:, 1], ignore_collisions=out["collision"].softmax(-1)[:, 1],
-            features=out["features"],
+            features=out["features"], logits={k: out[k] for k in ("translation", "rotation", "gripper", "collision")},
         )
 
     @torch.no_grad()
