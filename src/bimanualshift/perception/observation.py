@@ -26,6 +26,9 @@ class ArmObservation:
     other_proprio: np.ndarray  # (8,) the other arm's proprio in this arm's frame; zeros for a single arm
     # (GOAL_GEOMETRY_DIM,) the goal's location in this arm's frame (zeros without a projection or a seen goal)
     goal: np.ndarray = field(default_factory=lambda: np.zeros(GOAL_GEOMETRY_DIM, np.float32))
+    # (P, 6) arm-frame xyz (metres) and rgb in [0, 1] of the pixels the voxels are made of (the same projection
+    # mask), for priors that read the cloud itself; None unless the builder was asked for ``points``.
+    points: np.ndarray | None = None
 
 
 def world_point_cloud(obs: KeyframeObservation) -> tuple[np.ndarray, np.ndarray]:
@@ -44,6 +47,18 @@ def proprio_in_arm_frame(proprio_world: np.ndarray, frame: ArmFrame) -> np.ndarr
     return np.r_[pos, quat, proprio_world[7]].astype(np.float32)
 
 
+def arm_point_cloud(world: tuple[np.ndarray, np.ndarray], keep: np.ndarray, frame: ArmFrame, limit: int
+                    ) -> np.ndarray:
+    """(P <= limit, 6) arm-frame xyz and rgb of the kept pixels; above ``limit``, a subsample fixed by the pixel
+    count alone (no global RNG), in pixel order."""
+    points, colours = world
+    chosen = np.flatnonzero(keep.ravel())
+    if len(chosen) > limit:
+        chosen = np.sort(np.random.default_rng(len(chosen)).choice(chosen, limit, replace=False))
+    xyz = frame.points_to_arm(points.reshape(-1, 3)[chosen])
+    return np.concatenate([xyz, colours.reshape(-1, 3)[chosen]], axis=1).astype(np.float32)
+
+
 class ArmObservationBuilder:
     """Builds each arm's voxel observation, through the arm-conditioned projection when one is given.
 
@@ -52,22 +67,28 @@ class ArmObservationBuilder:
     goal mask also gives the goal's location (``ArmObservation.goal``).
     """
 
-    def __init__(self, grid: VoxelGrid, projection: ArmProjection | None = None, mask_voxels: bool = True) -> None:
+    def __init__(self, grid: VoxelGrid, projection: ArmProjection | None = None, mask_voxels: bool = True,
+                 points: int = 0) -> None:
         self.grid = grid
         self.projection = projection
         self.mask_voxels = mask_voxels  # False: segment only to locate the goal, the voxels stay global
+        self.points = points  # > 0: also each arm's point cloud, at most this many points (a fixed subsample)
 
     def build(self, obs: KeyframeObservation) -> dict[str, ArmObservation]:
         masks, goal_mask = self.projection.project(obs) if self.projection else (None, None)
+        world = world_point_cloud(obs) if self.points else None
         goal_points = goal_world_points(obs, goal_mask) if goal_mask is not None else np.zeros((0, 3), np.float32)
         out = {}
         n = len(obs.scene.arm_names)
         for i, (arm, frame) in enumerate(arm_frames(obs).items()):
             index = pixel_voxel_index(obs.depth, obs.intrinsics, obs.extrinsics, self.grid, frame.world_to_base)
             voxels = voxelize_pixels(index, obs.rgb, self.grid.size)
+            keep = index >= 0
             if masks is not None and self.mask_voxels:
                 voxels *= voxel_occupancy(index, masks[arm], self.grid.size)
+                keep &= masks[arm]
             other = proprio_in_arm_frame(obs.proprio[1 - i], frame) if n == 2 else np.zeros(8, np.float32)
+            cloud = arm_point_cloud(world, keep, frame, self.points) if world is not None else None
             out[arm] = ArmObservation(voxels, proprio_in_arm_frame(obs.proprio[i], frame), other,
-                                      goal_geometry(goal_points, frame, self.grid.bounds))
+                                      goal_geometry(goal_points, frame, self.grid.bounds), cloud)
         return out
