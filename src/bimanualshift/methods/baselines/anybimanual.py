@@ -66,9 +66,10 @@ class AnyBimanualNetwork(PerActPrior):
         weights = self.skill_weights(text).softmax(-1)
         return text + self.skill_gate * (weights @ self.skills)
 
-    def forward(self, voxels: torch.Tensor, proprio: torch.Tensor, text: torch.Tensor) -> dict[str, torch.Tensor]:
+    def forward(self, voxels: torch.Tensor, proprio: torch.Tensor, text: torch.Tensor, keep_maps: bool = False
+                ) -> dict[str, torch.Tensor]:
         voxels = voxels * self.soft_mask(voxels, proprio, text)
-        return super().forward(voxels, proprio, self.skill_language(text))
+        return super().forward(voxels, proprio, self.skill_language(text), keep_maps)
 
 
 def build_anybimanual(prior: UnimanualPrior | None, extra_dim: int, size: str,

