@@ -26,6 +26,8 @@ class OptimConfig:
     optimizer: str = "lamb"  # lamb (PerAct, the paper) or adamw (Diffusion Policy)
     checkpoint_every: int = 250
     seed: int = 0
+    schedule: str = "constant"  # constant, or cosine: linear warm-up, then cosine decay to 5 % of lr
+    warmup_steps: int = 0  # steps of linear warm-up (cosine only)
 
 
 @dataclass
@@ -46,6 +48,9 @@ class PriorNetworkConfig:
     prior: str = "peract"  # a registered prior type: peract, dp (= diffusion) or act
     size: str = "default"  # a named model size from bimanualshift.configs (default, debug, ...)
     model: dict = field(default_factory=dict)  # overrides of the prior's config fields, e.g. {"dim": 64}
+    # Continue from a trained prior (a folder or a shipped name): its architecture, weights and normalisation
+    # (type, size and model are then read from it); a run of its own, with a fresh optimiser and schedule.
+    init_from: str = ""
 
 
 @dataclass

@@ -31,10 +31,13 @@ def step_generator(seed: int, step: int) -> torch.Generator:
 def run_training(run_dir: str | Path, model: nn.Module, optimizer: torch.optim.Optimizer, steps: int,
                  step_fn: StepFn, seed: int, checkpoint_every: int = 100,
                  validate_fn: ValidateFn | None = None, on_best: Callable[[int, float, float], None] | None = None,
-                 desc: str = "train", ctx: Distributed | None = None) -> dict[str, Any]:
+                 desc: str = "train", ctx: Distributed | None = None,
+                 lr_factor: Callable[[int], float] | None = None) -> dict[str, Any]:
     """Train for ``steps``; with ``ctx`` (several ``torchrun`` processes) every rank steps, losses are logged as
-    their mean over the ranks, and only rank 0 validates and writes."""
+    their mean over the ranks, and only rank 0 validates and writes. ``lr_factor(step)`` scales every parameter
+    group's learning rate at each step (a schedule; computed from the step, so resuming continues it)."""
     ctx = ctx or Distributed()
+    base_lr = [group["lr"] for group in optimizer.param_groups]
     run_dir = Path(run_dir)
     start, history, best = 0, [], {"step": None, "value": float("inf")}
     elapsed_before = 0.0  # training seconds spent by earlier, interrupted runs of this directory
@@ -55,6 +58,9 @@ def run_training(run_dir: str | Path, model: nn.Module, optimizer: torch.optim.O
     bar = tqdm(range(start, steps), initial=start, total=steps, desc=desc, unit="step", disable=not ctx.is_main)
     for step in bar:
         model.train()
+        if lr_factor is not None:
+            for group, lr in zip(optimizer.param_groups, base_lr):
+                group["lr"] = lr * lr_factor(step)
         losses = step_fn(step, step_generator(seed, step))
         optimizer.zero_grad(set_to_none=True)
         losses["total"].backward()

@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable
 
 import torch
@@ -18,6 +19,21 @@ def make_lamb(params: Iterable[torch.nn.Parameter], lr: float = 5e-4, weight_dec
 
 
 OPTIMIZERS = ("lamb", "adamw")
+SCHEDULES = ("constant", "cosine")
+MIN_LR_FACTOR = 0.05  # where the cosine decay ends
+
+
+def lr_factor(schedule: str, step: int, steps: int, warmup_steps: int = 0) -> float:
+    """The learning rate at ``step`` as a fraction of the configured one; a function of the step alone, so a
+    resumed run continues the schedule exactly."""
+    if schedule == "constant":
+        return 1.0
+    if schedule != "cosine":
+        raise ValueError(f"unknown learning-rate schedule {schedule!r}; choose from {SCHEDULES}")
+    if step < warmup_steps:
+        return (step + 1) / warmup_steps
+    progress = (step - warmup_steps) / max(1, steps - warmup_steps)
+    return MIN_LR_FACTOR + (1 - MIN_LR_FACTOR) * 0.5 * (1 + math.cos(math.pi * min(progress, 1.0)))
 
 
 

@@ -23,14 +23,15 @@ from bimanualshift.geometry.voxels import VoxelGrid
 from bimanualshift.perception.arm_samples import ArmSamples, action_chunks, build_arm_samples
 from bimanualshift.perception.observation import ArmObservationBuilder
 from bimanualshift.priors import UnimanualPrior
-from bimanualshift.priors.base import PRIORS, prior_type
+from bimanualshift.priors.base import PRIORS, prior_type, resolve_prior_path
 from bimanualshift.priors.base import build_prior as build_prior_network
 from bimanualshift.sim.task import resolve_task_names, task_names
 from bimanualshift.training.augment import Se3Augmentation, transform_points, transform_quats, transform_voxels
 from bimanualshift.training.configs import PretrainConfig
 from bimanualshift.training.distributed import Distributed, init_distributed, loss_module
 from bimanualshift.training.loop import run_training
-from bimanualshift.training.optim import make_optimizer
+from bimanualshift.training.optim import lr_factor, make_optimizer
+from bimanualshift.utils.config_files import read_json_file
 from bimanualshift.utils.io import atomic_write_json, atomic_write_text
 
 
@@ -136,7 +137,9 @@ def model_card(cfg: PretrainConfig, kind: str, step: int, accuracy: float, train
         f"--split validation --out {ds.validation_data} --workers 2",
         f"bimanualshift pretrain --prior {net.prior} --size {net.size} --tasks {tasks} --data {ds.data} "
         f"--validation-data {ds.validation_data} --steps {opt.steps} --batch-size {opt.batch_size} "
-        f"--lr {opt.lr} --optimizer {opt.optimizer} --seed {opt.seed}{overrides}",
+        f"--lr {opt.lr} --optimizer {opt.optimizer} --seed {opt.seed}{overrides}"
+        + (f" --schedule {opt.schedule} --warmup-steps {opt.warmup_steps}" if opt.schedule != "constant" else "")
+        + (f" --init-from {net.init_from}" if net.init_from else ""),
     ])
     what = {"peract": "voxels in the arm's base frame -> translation heat-map, Euler rotation bins, gripper and "
                       "collision (PerAct-style)",
@@ -176,7 +179,10 @@ def pretrain(cfg: PretrainConfig) -> Path:
         out.mkdir(parents=True, exist_ok=True)
         atomic_write_json(out / "config.json", asdict(cfg))
     torch.manual_seed(opt.seed)
-    model = build_prior(cfg)
+    model = UnimanualPrior.from_pretrained(net.init_from) if net.init_from else build_prior(cfg)
+    if net.init_from and model.config.type != kind:
+        raise ValueError(f"init_from={net.init_from!r} is a {model.config.type} prior, not {kind}: pass its type "
+                         f"with --prior {model.config.type}")
     prior_cfg = model.config
     grid = VoxelGrid(tuple(prior_cfg.bounds), prior_cfg.voxel_size)
     builder = ArmObservationBuilder(grid)
@@ -199,7 +205,8 @@ def pretrain(cfg: PretrainConfig) -> Path:
     val_paths = [p for t in tasks for p in list_episodes(ds.validation_data, t)]
     val = (PriorBatches(build_arm_samples(val_paths, builder, max_keyframes, desc="voxelise val"), grid,
                         model.action_horizon) if val_paths else None)
-    model.set_normalization(train.actions["position"].reshape(-1, 3))
+    if not net.init_from:  # a continued prior keeps the normalisation its weights were trained with
+        model.set_normalization(train.actions["position"].reshape(-1, 3))
     optimizer = make_optimizer(opt.optimizer, model.parameters(), opt.lr)
     augmentation = (Se3Augmentation(ds.augment_translation_m, ds.augment_yaw_deg)
                     if ds.augment_translation_m > 0 or ds.augment_yaw_deg > 0 else None)
@@ -213,17 +220,23 @@ def pretrain(cfg: PretrainConfig) -> Path:
     def validate(step: int) -> float:
         return -translation_accuracy(model, val if val is not None else train)
 
+    # a continued prior's training time and steps include the runs that built its starting point
+    earlier = read_json_file(resolve_prior_path(net.init_from) / "config.json") if net.init_from else {}
+    earlier_s, earlier_steps = float(earlier.get("training_time_s") or 0.0), int(earlier.get("trained_steps") or 0)
+
     def on_best(step: int, value: float, elapsed_s: float) -> None:
         model.save_pretrained(out / "best", extra={
-            "trained_steps": step, "validation_translation_accuracy": -value,
-            "pretrain_tasks": tasks, "train_episodes": len(paths), "training_time_s": elapsed_s,
+            "trained_steps": earlier_steps + step, "validation_translation_accuracy": -value,
+            "pretrain_tasks": tasks, "train_episodes": len(paths), "training_time_s": earlier_s + elapsed_s,
+            "initialised_from": net.init_from or None,
         })
         atomic_write_text(out / "best" / "README.md", model_card(
-            cfg, kind, step, -value, len(paths), len(val_paths), elapsed_s,
+            cfg, kind, step, -value, len(paths), len(val_paths), earlier_s + elapsed_s,
             sum(p.numel() for p in model.parameters()), seeds_tried(paths), seeds_tried(val_paths)))
 
     result = run_training(out, model, optimizer, opt.steps, step_fn, opt.seed, opt.checkpoint_every,
-                          validate, on_best, desc=f"pretrain {kind}", ctx=ctx)
+                          validate, on_best, desc=f"pretrain {kind}", ctx=ctx,
+                          lr_factor=lambda step: lr_factor(opt.schedule, step, opt.steps, opt.warmup_steps))
     summary = {**result, "wall_time_s": round(time.time() - started, 1), "train_samples": len(train),
                "processes": ctx.world_size}
     if ctx.is_main:
