@@ -14,6 +14,7 @@ TARGET_RADIUS = 0.035
 REGION = ((-0.05, 0.10), (-0.12, 0.12))
 PUSH = (0.10, 0.16)  # distance from the block to the target
 FINGER_HALF = 0.012  # half the closed fingers' thickness along the push
+PUSH_OVERSHOOT = 0.01  # the fingers stop this far past where the block should rest
 
 
 @register_task("slide_block")
@@ -53,6 +54,10 @@ class SlideBlock(Task):
         quat = down_quat(np.arctan2(d[1], d[0]))  # fingers across the push: a flat face of the hand pushes
         z = TABLE_TOP_Z + CUBE_HALF
         behind = np.r_[block[:2], z] - d * (CUBE_HALF + FINGER_HALF + 0.03)
-        end = np.r_[target[:2], z] - d * (CUBE_HALF + FINGER_HALF)
+        # The push in two halves, ending 1 cm past the block's place on the target: in one stroke a long push
+        # (14-16 cm) left the block 3-7 cm short. Validation seeds 100000-100099: 84 % in one stroke, 95 % in
+        # halves, 90 % with the overshoot alone, 96 % with both.
+        rest = np.r_[target[:2], z] - d * (CUBE_HALF + FINGER_HALF)  # the fingers when the block is on target
+        end = rest + d * PUSH_OVERSHOOT
         return [{"right": ArmAction(p, quat, 0.0, 1.0)}
-                for p in (behind + [0, 0, 0.08], behind, end, end + [0, 0, 0.08])]
+                for p in (behind + [0, 0, 0.08], behind, (behind + rest) / 2, end, end + [0, 0, 0.08])]
