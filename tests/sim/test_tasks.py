@@ -83,10 +83,7 @@ def test_invalid_actions_raise_clear_errors(env: ManipulationEnv) -> None:
 
 # Seeds of these checks that an expert below 100 % misses (results/experts.json has the rates). Strict: a fix shows
 # here as an unexpected pass.
-KNOWN_EXPERT_FAILURES = {
-    ("sweep_dirt", 11): "sweep_dirt's expert succeeds on 88 % of test seeds; this seed is a miss since the controller "
-                        "moved to sim/arm_control.py (the priors issue raises the expert to >= 95 %)",
-}
+KNOWN_EXPERT_FAILURES: dict[tuple[str, int], str] = {}
 
 
 @pytest.mark.slow

@@ -103,13 +103,14 @@ def coverage_table(result: dict[str, Any]) -> str:
         return "–" if r is None else f"{scale * r[i][0]:.0f}…{scale * r[i][1]:.0f}"
 
     lines = ["| bimanual task | object | arm | x (cm) | y (cm) | yaw (°) | single-arm task | x (cm) | y (cm) | yaw (°) "
-             "| inside |", "|---|---|---|---|---|---|---|---|---|---|---|"]
+             "| covered | worst gap (cm) |", "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     deg = 180 / 3.141592653589793
     for r in result["rows"]:
         b, s = r["bimanual_range"], r["single_arm_range"]
         inside = "no single-arm skill" if r["inside"] is None else f"{100 * r['inside']:.0f} %"
         lines.append(f"| {r['task']} | {r['obj']} | {r['arm']} | {span(b, 0)} | {span(b, 1)} | {span(b, 2, deg)} | "
-                     f"{r['single_arm_task'] or '–'} | {span(s, 0)} | {span(s, 1)} | {span(s, 2, deg)} | {inside} |")
+                     f"{r['single_arm_task'] or '–'} | {span(s, 0)} | {span(s, 1)} | {span(s, 2, deg)} | {inside} | "
+                     f"{r.get('farthest_cm', '–')} |")
     return "\n".join([*lines, "", _footer(result)]) + "\n"
 
 

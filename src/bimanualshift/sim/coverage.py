@@ -1,9 +1,10 @@
-"""Where the bimanual tasks put their goal objects in each arm's own frame, against where the matching single-arm
-pretraining task puts the same object (its arm at y = 0).
+"""Where the bimanual tasks put each arm's goal objects in that arm's own frame, against where the matching
+single-arm pretraining task puts the same kind of object (its arm at y = 0).
 
 A frozen single-arm prior serves either arm because observations and actions are expressed in the arm's base
-frame; that works only where, in that frame, the single-arm data covers the bimanual layouts. Poses come from the
-tasks' own ``initialize_episode`` (an env reset per seed, nothing rendered), never from a declared table.
+frame; that works only where, in that frame, the single-arm data covers the bimanual layouts. Which objects an
+arm acts on comes from the task (``Task.arm_goals``), and every pose from the tasks' own ``initialize_episode``
+(an env reset per seed, nothing rendered), never from a declared table.
 """
 
 from __future__ import annotations
@@ -15,17 +16,28 @@ import numpy as np
 from bimanualshift.sim.env import ManipulationEnv
 from bimanualshift.sim.props.rope import rope_ends
 
-# Bimanual task -> {goal object: the single-arm task with the same object ("" when the suite has none)}.
+# Bimanual task -> {kind of goal object: the single-arm task acting on the same kind}.
 SKILL_PAIRS: dict[str, dict[str, str]] = {
     "push_two_buttons": {"button": "push_button"},
-    "lift_ball": {"ball": ""},
+    "lift_ball": {"ball": "push_ball_aside"},
     "pick_up_plate": {"plate": "pick_up_small_plate"},
     "take_tray_out_of_oven": {"oven": "open_oven_door", "tray": "take_tray_out_of_open_oven"},
     "straighten_rope": {"rope_end": "pull_rope_end"},
-    "sweep_to_dustpan": {"dustpan": "drag_dustpan", "brush": "sweep_dirt"},
-    "buttons_then_lift_ball": {"button": "push_button", "ball": ""},
+    "sweep_to_dustpan": {"dustpan": "hold_dustpan", "brush": "sweep_dirt"},
+    "buttons_then_lift_ball": {"button": "push_button", "ball": "push_ball_aside"},
 }
-ON_TABLE_X = 1.0  # unused buttons are parked beyond this (off the table, out of view)
+# Kinds whose turn about the vertical the cameras cannot see (round) are compared by position only.
+ROUND_KINDS = frozenset({"button", "plate", "ball", "rope_end"})
+# A bimanual pose is covered when a single-arm sample lies this close (x, y in metres; yaw in radians).
+NEAR_XY = 0.05
+NEAR_YAW = 0.20
+
+
+def goal_kind(goal: str) -> str:
+    """``button_1`` -> ``button``, ``rope:head`` -> ``rope_end``."""
+    if goal.startswith("rope:"):
+        return "rope_end"
+    return goal.rsplit("_", 1)[0] if goal[-1].isdigit() else goal
 
 
 def _yaw(quat_wxyz: np.ndarray) -> float:
@@ -33,65 +45,79 @@ def _yaw(quat_wxyz: np.ndarray) -> float:
     return float(np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z)))
 
 
-def object_poses(env: ManipulationEnv, obj: str) -> np.ndarray:
-    """(k, 3) world x, y and yaw of every instance of ``obj`` in the env's current scene."""
-    sim, model = env.sim, env.model
-    if obj == "rope_end":
-        return np.array([[*end[:2], 0.0] for end in rope_ends(sim, "rope")])
-    names = [model.body(i).name for i in range(model.nbody) if model.body_parentid[i] == 0]
-    chosen = [n for n in names if n == obj or (obj == "button" and n.startswith("button_"))]
-    poses = []
-    for name in chosen:
-        b = sim.body_id(name)
-        if sim.data.xpos[b][0] < ON_TABLE_X:
-            poses.append([*sim.data.xpos[b][:2], _yaw(sim.data.xquat[b])])
-    return np.array(poses).reshape(-1, 3)
+def goal_pose(env: ManipulationEnv, goal: str) -> np.ndarray:
+    """World x, y and yaw of one goal (a root body, or a rope end as ``rope:head`` / ``rope:tail``)."""
+    if goal.startswith("rope:"):
+        head, tail = rope_ends(env.sim, "rope")
+        end = head if goal == "rope:head" else tail
+        return np.array([end[0], end[1], 0.0])
+    b = env.sim.body_id(goal)
+    return np.array([*env.sim.data.xpos[b][:2], _yaw(env.sim.data.xquat[b])])
 
 
-def arm_frame_poses(task: str, obj: str, seeds: list[int]) -> dict[str, np.ndarray]:
-    """Per arm, (n, 3) x, y and yaw of ``obj`` in that arm's base frame over the episodes of ``seeds``."""
+def arm_frame_goal_poses(task: str, seeds: list[int]) -> dict[str, dict[str, np.ndarray]]:
+    """kind -> arm -> (n, 3) arm-frame x, y and yaw of that arm's goals of that kind over ``seeds``."""
     env = ManipulationEnv(task, image_size=32)
-    out: dict[str, list[np.ndarray]] = {arm: [] for arm in env.arm_frames}
+    out: dict[str, dict[str, list[np.ndarray]]] = {}
     for seed in seeds:
-        env.reset(seed=seed, options={"render": False})
-        world = object_poses(env, obj)
-        for arm, frame in env.arm_frames.items():
-            base = np.asarray(frame.position)
-            out[arm].append(np.c_[world[:, :2] - base[:2], world[:, 2] - frame.yaw])
+        env.reset(seed=seed, options={"render": False, "settle": False})
+        goals = env.task.arm_goals(env.sim)
+        if not goals:
+            raise ValueError(f"task {task!r} declares no arm goals (Task.arm_goals): its coverage is unknown")
+        for arm, names in goals.items():
+            frame = env.arm_frames[arm]
+            for name in names:
+                x, y, yaw = goal_pose(env, name)
+                local = frame.points_to_arm(np.array([[x, y, 0.0]]))[0]
+                out.setdefault(goal_kind(name), {}).setdefault(arm, []).append(
+                    np.array([local[0], local[1], wrap(yaw - frame.yaw)]))
     env.close()
-    return {arm: np.concatenate(rows) for arm, rows in out.items()}
+    return {kind: {arm: np.stack(rows) for arm, rows in arms.items()} for kind, arms in out.items()}
+
+
+def wrap(angle: float | np.ndarray) -> float | np.ndarray:
+    return (np.asarray(angle) + np.pi) % (2 * np.pi) - np.pi
+
+
+def covered(poses: np.ndarray, reference: np.ndarray, use_yaw: bool) -> np.ndarray:
+    """(n,) whether each pose has a reference sample within NEAR_XY (and NEAR_YAW when ``use_yaw``)."""
+    dxy = np.linalg.norm(poses[:, None, :2] - reference[None, :, :2], axis=-1)
+    near = dxy <= NEAR_XY
+    if use_yaw:
+        near &= np.abs(wrap(poses[:, None, 2] - reference[None, :, 2])) <= NEAR_YAW
+    return near.any(axis=1)
 
 
 @dataclass
 class Coverage:
-    """One bimanual (task, object, arm) against its single-arm task: the ranges of each and the share of the
-    bimanual poses that fall inside the single-arm poses' box (x, y and, for oriented objects, yaw)."""
+    """One bimanual (task, kind of goal object, arm) against its single-arm task: the range of each and the
+    share of the bimanual poses with a single-arm sample nearby (x, y and, for oriented objects, yaw)."""
 
     task: str
     obj: str
     arm: str
     single_arm_task: str
     bimanual_range: list[list[float]]  # [[min, max]] for x, y, yaw
-    single_arm_range: list[list[float]] | None
-    inside: float | None  # share of bimanual poses inside the single-arm box
+    single_arm_range: list[list[float]]
+    inside: float  # share of bimanual poses with a single-arm sample within NEAR_XY / NEAR_YAW
+    farthest_cm: float  # the worst bimanual pose's distance (x, y) to its nearest single-arm sample
 
 
 def _ranges(poses: np.ndarray) -> list[list[float]]:
     return [[round(float(poses[:, i].min()), 3), round(float(poses[:, i].max()), 3)] for i in range(3)]
 
 
-def coverage(task: str, seeds: list[int], single_arm_seeds: list[int], use_yaw: bool = True) -> list[Coverage]:
+def coverage(task: str, seeds: list[int], single_arm_seeds: list[int]) -> list[Coverage]:
+    bimanual = arm_frame_goal_poses(task, seeds)
+    references: dict[str, dict[str, dict[str, np.ndarray]]] = {}
     rows = []
-    for obj, single in SKILL_PAIRS[task].items():
-        bimanual = arm_frame_poses(task, obj, seeds)
-        reference = arm_frame_poses(single, obj, single_arm_seeds)["right"] if single else None
-        for arm, poses in bimanual.items():
-            inside = None
-            if reference is not None:
-                lo, hi = reference.min(0), reference.max(0)
-                dims = slice(0, 3) if use_yaw and obj not in ("button", "rope_end", "ball") else slice(0, 2)
-                inside = round(float(np.mean(np.all((poses[:, dims] >= lo[dims]) & (poses[:, dims] <= hi[dims]),
-                                                    axis=1))), 3)
-            rows.append(Coverage(task, obj, arm, single, _ranges(poses),
-                                 _ranges(reference) if reference is not None else None, inside))
+    for kind, single in SKILL_PAIRS[task].items():
+        if single not in references:
+            references[single] = arm_frame_goal_poses(single, single_arm_seeds)
+        reference = references[single][kind]["right"]
+        for arm, poses in sorted(bimanual[kind].items()):
+            inside = covered(poses, reference, kind not in ROUND_KINDS)
+            gaps = np.linalg.norm(poses[:, None, :2] - reference[None, :, :2], axis=-1).min(axis=1)
+            rows.append(Coverage(task, kind, arm, single, _ranges(poses), _ranges(reference),
+                                 round(float(inside.mean()), 3), round(float(gaps.max()) * 100, 1)))
     return rows

@@ -109,8 +109,10 @@ class ManipulationEnv(gym.Env):
             mirror_bodies(self.model, self.data, self._task_roots)
         self.keyframe_index = 0
         self.gripper_open = {arm: 1.0 for arm in self.arm_names}
-        self._settle(steps=5)
-        render = True if options is None else bool(options.get("render", True))
+        options = options or {}
+        if options.get("settle", True):  # False: the poses initialize_episode set, before physics moves them
+            self._settle(steps=5)
+        render = bool(options.get("render", True))
         return self.observe(render=render), {"instruction": self.task.instruction()}
 
     def _reset_physics(self) -> None:

@@ -110,6 +110,18 @@ class SimHandle:
     def body_pos(self, name: str) -> np.ndarray:
         return self.data.xpos[self.body_id(name)].copy()
 
+    def pinched(self, body: str) -> bool:
+        """Whether both fingers of some gripper touch the named body (it is held, not merely touched)."""
+        target = self.body_id(body)
+        fingers: set[tuple[str, str]] = set()
+        for contact in self.data.contact[: self.data.ncon]:
+            for mine, other in ((contact.geom1, contact.geom2), (contact.geom2, contact.geom1)):
+                name = self.model.geom(other).name
+                if self.model.geom_bodyid[mine] == target and "finger" in name:
+                    gripper = name.split("_finger")[0]
+                    fingers.add((gripper, "1" if "finger1" in name else "2"))
+        return any((g, "1") in fingers and (g, "2") in fingers for g, _ in fingers)
+
     def touching_robot(self, body: str) -> bool:
         """Whether any robot or gripper geom touches the named body (e.g. it is still held)."""
         target = self.body_id(body)
@@ -174,6 +186,11 @@ class Task(ABC):
 
     @abstractmethod
     def evaluate_success(self, sim: SimHandle) -> bool: ...
+
+    def arm_goals(self, sim: SimHandle) -> dict[str, list[str]]:
+        """Per arm, the objects it acts on this episode: root body names, or ``rope:head`` / ``rope:tail`` for
+        a rope's ends. The arm-frame coverage check (``sim.coverage``) reads it; empty when a task declares none."""
+        return {}
 
     # A multi-stage task names its stages in order and judges each in ``evaluate_stages`` (stage-wise success,
     # as the paper's generalisation and long-horizon studies report it). The last stage is the task's success.

@@ -66,6 +66,12 @@ def latch_presses(sim: SimHandle, names: tuple[str, ...] | list[str], pressed: l
             pressed[i] = True
 
 
+def buttons_by_side(sim: SimHandle, first: str, second: str) -> dict[str, str]:
+    """The two buttons' names, each given to the arm on its side (larger y: left; a mirrored layout swaps them)."""
+    left_first = button_top(sim, first)[1] > button_top(sim, second)[1]
+    return {"left": first, "right": second} if left_first else {"left": second, "right": first}
+
+
 def tops_by_side(sim: SimHandle, first: str, second: str) -> dict[str, np.ndarray]:
     """The two buttons' tops, each given to the arm on its side (larger y: left; a mirrored layout swaps them)."""
     a, b = button_top(sim, first), button_top(sim, second)

@@ -63,8 +63,11 @@ class PlateLiftTask(Task):
     yaw_range: ClassVar[tuple[float, float]]  # the plate's random turn about the vertical (radians)
     lifted_by: ClassVar[float]  # metres the plate must rise
 
+    def sample_xy(self, rng: np.random.Generator) -> np.ndarray:
+        return np.array([rng.uniform(*self.region[0]), rng.uniform(*self.region[1])])
+
     def initialize_episode(self, sim: SimHandle, rng: np.random.Generator) -> None:
-        xy = np.array([rng.uniform(*self.region[0]), rng.uniform(*self.region[1])])
+        xy = self.sample_xy(rng)
         yaw = rng.uniform(*self.yaw_range)
         sim.set_free_pose("plate_joint", np.r_[xy, TABLE_TOP_Z], Rotation.from_euler("z", yaw).as_quat())
         colour = self.pick_colours(rng, 1)[0]
@@ -76,3 +79,6 @@ class PlateLiftTask(Task):
 
     def evaluate_success(self, sim: SimHandle) -> bool:
         return bool(sim.body_pos("plate")[2] > TABLE_TOP_Z + self.lifted_by)
+
+    def arm_goals(self, sim: SimHandle) -> dict[str, list[str]]:
+        return {arm: ["plate"] for arm in self.arm_names}

@@ -81,22 +81,24 @@ def rope_ends(sim: SimHandle, prefix: str) -> tuple[np.ndarray, np.ndarray]:
     return sim.data.xpos[first].copy(), tail
 
 
-def crumpled_rope(rng: np.random.Generator) -> tuple[np.ndarray, float, np.ndarray]:
-    """A random smooth bend profile (start xy, heading, bends) that keeps the rope on the table and untangled."""
+def crumpled_rope(rng: np.random.Generator, centre_y: tuple[float, float] = (-0.05, 0.05),
+                  reach_y: tuple[float, float] = REACH[1]) -> tuple[np.ndarray, float, np.ndarray, np.ndarray]:
+    """A random smooth bend profile (head xy, heading, bends, tail xy) that keeps the rope on the table, within
+    ``reach_y`` and untangled, its centre's y in ``centre_y``."""
     s = (np.arange(1, ROPE_SEGMENTS) + 0.5) * SEGMENT
     for _ in range(500):
         a, b, c = rng.uniform(-6, 6), rng.uniform(3, 9), rng.uniform(0, 2 * np.pi)
         bends = (a + b * np.sin(2 * np.pi * s / (ROPE_SEGMENTS * SEGMENT) + c)) * SEGMENT
         heading = -np.pi / 2 + rng.uniform(-np.pi / 4, np.pi / 4)  # head on the left, pointing right
         chain = flat_chain(heading, bends)
-        centre = np.array([rng.uniform(-0.05, 0.10), rng.uniform(-0.05, 0.05)])
+        centre = np.array([rng.uniform(-0.05, 0.10), rng.uniform(*centre_y)])
         chain += centre - chain.mean(axis=0)
         span = np.linalg.norm(chain[-1] - chain[0])
         far = np.linalg.norm(chain[:, None] - chain[None], axis=-1)[np.triu_indices(len(chain), k=3)]
-        inside = np.all((chain >= [REACH[0][0], REACH[1][0]]) & (chain <= [REACH[0][1], REACH[1][1]]))
+        inside = np.all((chain >= [REACH[0][0], reach_y[0]]) & (chain <= [REACH[0][1], reach_y[1]]))
         reachable = max(chain[0, 0], chain[-1, 0]) < END_MAX_X
         if span < 0.38 and far.min() > 0.028 and inside and reachable and chain[0, 1] > chain[-1, 1] + 0.08:
-            return chain[0], heading, bends
+            return chain[0], heading, bends, chain[-1]
     raise RuntimeError("could not sample a rope shape")
 
 
@@ -112,11 +114,13 @@ class RopeTask(Task):
     def instance_name(self, root_body: str) -> str:
         return "rope" if root_body == rope_bodies("rope")[0] else root_body
 
-    def crumple_rope(self, sim: SimHandle, rng: np.random.Generator) -> np.ndarray:
-        """Lay the rope out crumpled at random (``crumpled_rope``); where its head starts."""
-        start, heading, bends = crumpled_rope(rng)
+    def crumple_rope(self, sim: SimHandle, rng: np.random.Generator, **placement: tuple[float, float]
+                     ) -> tuple[np.ndarray, np.ndarray]:
+        """Lay the rope out crumpled at random (``crumpled_rope``, ``placement`` its ranges); where its head
+        and its tail start."""
+        start, heading, bends, tail = crumpled_rope(rng, **placement)
         shape_rope(sim, "rope", start, heading, bends)
-        return start
+        return start, tail
 
     def colour_rope(self, sim: SimHandle, colour: str) -> None:
         for body in rope_bodies("rope"):

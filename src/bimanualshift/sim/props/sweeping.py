@@ -93,9 +93,11 @@ DIRT_ALONG = (0.05, 0.19)  # dirt distance in front of the mouth
 DIRT_ACROSS = 0.045  # dirt offset across the sweep, either side of the pan's centre line
 
 
-def place_sweep_scene(sim: SimHandle, rng: np.random.Generator, pan: str, brush: str, dirt: tuple[str, ...]) -> None:
-    """Dustpan facing -y, dirt scattered in front of its mouth, the brush beyond the dirt."""
-    mouth = np.array([rng.uniform(*PAN_MOUTH[0]), rng.uniform(*PAN_MOUTH[1])])
+def place_sweep_scene(sim: SimHandle, rng: np.random.Generator, pan: str, brush: str, dirt: tuple[str, ...],
+                      shift_y: float = 0.0) -> None:
+    """Dustpan facing -y, dirt scattered in front of its mouth, the brush beyond the dirt; everything
+    ``shift_y`` to the side."""
+    mouth = np.array([rng.uniform(*PAN_MOUTH[0]), rng.uniform(*PAN_MOUTH[1]) + shift_y])
     pan_yaw = -np.pi / 2 + rng.uniform(-PAN_TURN, PAN_TURN)  # the pan's x (out of the mouth) towards -y
     sim.set_free_pose(f"{pan}_joint", np.r_[mouth, TABLE_TOP_Z], Rotation.from_euler("z", pan_yaw).as_quat())
     out = np.array([np.cos(pan_yaw), np.sin(pan_yaw)])
@@ -104,7 +106,7 @@ def place_sweep_scene(sim: SimHandle, rng: np.random.Generator, pan: str, brush:
     for name, (a, c) in zip(dirt, sample_separated(rng, regions, min_distance=0.025)):
         sim.set_free_pose(f"{name}_joint", np.r_[mouth + a * out + c * across, TABLE_TOP_Z + DIRT_HALF],
                           Rotation.from_euler("z", rng.uniform(0, np.pi / 2)).as_quat())
-    brush_xy = np.array([mouth[0] + rng.uniform(-0.03, 0.03), rng.uniform(*BRUSH_Y)])
+    brush_xy = np.array([mouth[0] + rng.uniform(-0.03, 0.03), rng.uniform(*BRUSH_Y) + shift_y])
     sim.set_free_pose(f"{brush}_joint", np.r_[brush_xy, TABLE_TOP_Z],
                       Rotation.from_euler("z", rng.uniform(-0.15, 0.15)).as_quat())
 

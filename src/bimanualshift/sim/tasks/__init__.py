@@ -11,10 +11,12 @@ from bimanualshift.sim.tasks.bimanual import (  # noqa: F401
 )
 from bimanualshift.sim.tasks.unimanual import (  # noqa: F401
     drag_dustpan,
+    hold_dustpan,
     open_oven_door,
     pick_cube,
     pick_up_small_plate,
     pull_rope_end,
+    push_ball_aside,
     push_button,
     slide_block,
     sweep_dirt,

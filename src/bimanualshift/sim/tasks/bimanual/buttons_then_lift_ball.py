@@ -11,6 +11,7 @@ from bimanualshift.sim.layout import TABLE_TOP_Z
 from bimanualshift.sim.props.ball import BALL_RADIUS, ball_xml
 from bimanualshift.sim.props.buttons import (
     button_xml,
+    buttons_by_side,
     latch_presses,
     place_button,
     press_keyframes,
@@ -68,6 +69,9 @@ class ButtonsThenLiftBall(Task):
 
     def evaluate_success(self, sim: SimHandle) -> bool:
         return all(self.episode["pressed"]) and self._ball_rise(sim) > LIFTED_BY
+
+    def arm_goals(self, sim: SimHandle) -> dict[str, list[str]]:
+        return {arm: [b, "ball"] for arm, b in buttons_by_side(sim, *BUTTONS).items()}
 
     def expert_keyframes(self, sim: SimHandle) -> list[Keyframe]:
         # Each arm presses the button on its side (a mirrored layout swaps them).

@@ -35,6 +35,9 @@ class LiftBall(Task):
     def evaluate_success(self, sim: SimHandle) -> bool:
         return bool(sim.body_pos("ball")[2] > TABLE_TOP_Z + BALL_RADIUS + LIFTED_BY)
 
+    def arm_goals(self, sim: SimHandle) -> dict[str, list[str]]:
+        return {"left": ["ball"], "right": ["ball"]}
+
     def expert_keyframes(self, sim: SimHandle) -> list[Keyframe]:
         return squeeze_and_lift(sim.body_pos("ball"))
 

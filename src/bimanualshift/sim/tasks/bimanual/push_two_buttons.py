@@ -6,6 +6,7 @@ import numpy as np
 
 from bimanualshift.sim.props.buttons import (
     button_xml,
+    buttons_by_side,
     latch_presses,
     place_button,
     press_keyframes,
@@ -52,6 +53,9 @@ class PushTwoButtons(Task):
 
     def evaluate_success(self, sim: SimHandle) -> bool:
         return all(self.episode["pressed"][i] for i in self.episode["named"])
+
+    def arm_goals(self, sim: SimHandle) -> dict[str, list[str]]:
+        return {arm: [b] for arm, b in buttons_by_side(sim, BUTTONS[0], BUTTONS[1]).items()}
 
     def expert_keyframes(self, sim: SimHandle) -> list[Keyframe]:
         # Each arm presses the named button on its side (the layout may be mirrored).

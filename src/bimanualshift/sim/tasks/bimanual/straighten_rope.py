@@ -53,10 +53,17 @@ class StraightenRope(RopeTask):
                 for end, target in ((head, "head_target"), (tail, "tail_target"))]
         return bool(all(near))
 
-    def expert_keyframes(self, sim: SimHandle) -> list[Keyframe]:
+    def roles(self, sim: SimHandle) -> tuple[str, str]:
+        """(head arm, tail arm): each arm takes the end lying on its side (the layout may be mirrored)."""
         head, tail = rope_ends(sim, "rope")
-        # Each arm takes the end lying on its side (the layout may be mirrored).
         head_arm = "left" if head[1] > tail[1] else "right"
-        tail_arm = "right" if head_arm == "left" else "left"
+        return head_arm, "right" if head_arm == "left" else "left"
+
+    def arm_goals(self, sim: SimHandle) -> dict[str, list[str]]:
+        head_arm, tail_arm = self.roles(sim)
+        return {head_arm: ["rope:head"], tail_arm: ["rope:tail"]}
+
+    def expert_keyframes(self, sim: SimHandle) -> list[Keyframe]:
+        head_arm, tail_arm = self.roles(sim)
         return zip_arms(**{head_arm: carry_rope_end(sim, "rope", True, sim.body_pos("head_target")),
                            tail_arm: carry_rope_end(sim, "rope", False, sim.body_pos("tail_target"))})

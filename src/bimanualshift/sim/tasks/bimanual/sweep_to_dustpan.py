@@ -32,9 +32,17 @@ class SweepToDustpan(SweepTask):
     def instruction(self) -> str:
         return PHRASINGS[self.episode["phrasing"]]
 
-    def expert_keyframes(self, sim: SimHandle) -> list[Keyframe]:
-        # The arm on the dustpan's side holds it; the other sweeps towards it (a mirrored layout swaps them).
+    def roles(self, sim: SimHandle) -> tuple[str, str]:
+        """(dustpan arm, brush arm): the arm on the dustpan's side holds it; the other sweeps towards it (a
+        mirrored layout swaps them)."""
         pan_arm = "left" if sim.body_pos("dustpan")[1] > sim.body_pos("brush")[1] else "right"
-        brush_arm = "right" if pan_arm == "left" else "left"
+        return pan_arm, "right" if pan_arm == "left" else "left"
+
+    def arm_goals(self, sim: SimHandle) -> dict[str, list[str]]:
+        pan_arm, brush_arm = self.roles(sim)
+        return {pan_arm: ["dustpan"], brush_arm: ["brush"]}
+
+    def expert_keyframes(self, sim: SimHandle) -> list[Keyframe]:
+        pan_arm, brush_arm = self.roles(sim)
         sweep = sweep_into_dustpan(sim, "brush", "dustpan", SWEEP_DIRT)
         return zip_arms(**{pan_arm: hold_dustpan(sim, "dustpan", len(sweep)), brush_arm: sweep})

@@ -53,12 +53,19 @@ class TakeTrayOutOfOven(Task):
         door_open = float(sim.joint_qpos("oven_door_hinge")[0]) >= DOOR_OPEN_AT
         return [door_open, self.evaluate_success(sim)]
 
+    def roles(self, sim: SimHandle) -> tuple[str, str]:
+        """(door arm, tray arm). The tray sits off-centre: the arm on its side takes it, the other opens the
+        door from its own side (so a mirrored layout swaps the roles)."""
+        door_arm = "left" if oven_frame(sim, "oven").to_local(sim.body_pos("tray"))[1] <= 0 else "right"
+        return door_arm, "right" if door_arm == "left" else "left"
+
+    def arm_goals(self, sim: SimHandle) -> dict[str, list[str]]:
+        door_arm, tray_arm = self.roles(sim)
+        return {door_arm: ["oven"], tray_arm: ["tray"]}
+
     def expert_keyframes(self, sim: SimHandle) -> list[Keyframe]:
         frame = oven_frame(sim, "oven")
-        # The tray sits off-centre: the arm on its side takes it, the other opens the door from its own side
-        # (so a mirrored layout swaps the roles).
-        door_arm = "left" if frame.to_local(sim.body_pos("tray"))[1] <= 0 else "right"
-        tray_arm = "right" if door_arm == "left" else "left"
+        door_arm, tray_arm = self.roles(sim)
         side = 1.0 if door_arm == "left" else -1.0
         door = open_oven_door(frame, hook_y=side * 0.04)
         tray = pull_tray_out(frame, sim.body_pos("tray"))

@@ -48,6 +48,9 @@ class DragDustpan(Task):
     def evaluate_success(self, sim: SimHandle) -> bool:
         return bool(np.linalg.norm(self._pan_centre(sim)[:2] - sim.body_pos("target")[:2]) < TARGET_RADIUS)
 
+    def arm_goals(self, sim: SimHandle) -> dict[str, list[str]]:
+        return {"right": ["dustpan"]}
+
     def expert_keyframes(self, sim: SimHandle) -> list[Keyframe]:
         grasp = hold_dustpan(sim, "dustpan", steps=3)
         shift = np.r_[sim.body_pos("target")[:2] - self._pan_centre(sim)[:2], 0.0]

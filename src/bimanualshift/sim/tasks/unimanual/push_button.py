@@ -46,5 +46,8 @@ class PushButton(Task):
     def evaluate_success(self, sim: SimHandle) -> bool:
         return bool(self.episode["pressed"])
 
+    def arm_goals(self, sim: SimHandle) -> dict[str, list[str]]:
+        return {"right": [BUTTONS[self.episode["target"]]]}
+
     def expert_keyframes(self, sim: SimHandle) -> list[Keyframe]:
         return press_keyframes({"right": button_top(sim, BUTTONS[self.episode["target"]])})
