@@ -16,6 +16,11 @@ PRIOR_SIZES: dict[str, dict[str, dict[str, Any]]] = {
         "debug": {"voxel_size": 16, "max_points": 128, "point_dim": 32, "cells": 2, "dim": 32, "layers": 1, "heads": 2,
                   "train_timesteps": 20, "inference_steps": 3},
     },
+    "rvt": {
+        "default": {},  # RVTConfig defaults: 4096 points, 3 views of 64^2, 4 layers of width 96 per stage
+        "debug": {"voxel_size": 16, "num_points": 256, "image_size": 16, "patch_size": 4, "dim": 32, "layers": 1,
+                  "heads": 2, "decoder_dim": 8, "lift_grid": 8, "rotation_bin_degrees": 30.0},
+    },
     "act": {
         "default": {},  # ACTConfig defaults: 32^3 voxels, 1024 points, 2 + 2 layers of width 128
         "debug": {"voxel_size": 16, "max_points": 128, "point_dim": 32, "cells": 2, "dim": 32, "encoder_layers": 1,

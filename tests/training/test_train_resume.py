@@ -231,3 +231,19 @@ def test_prior_report_resumes_from_its_episode_log(tiny_prior: Path, tmp_path: P
     partial = evaluate_priors([str(tiny_prior)], ["push_button"], seeds, log=tmp_path / "b.jsonl",
                               deadline=time.time() - 1)
     assert partial == first[:1]
+
+
+def test_rvt_prior_pretrains_resumes_and_serves_the_residual_frozen(demo_root: Path, tmp_path: Path) -> None:
+    pretrain(pretrain_cfg(demo_root, tmp_path / "a", steps=2, prior="rvt"))
+    best = pretrain(pretrain_cfg(demo_root, tmp_path / "a", steps=4, prior="rvt"))
+    pretrain(pretrain_cfg(demo_root, tmp_path / "b", steps=4, prior="rvt"))
+    resumed = load_file(str(latest_checkpoint(tmp_path / "a") / "model.safetensors"))
+    straight = load_file(str(latest_checkpoint(tmp_path / "b") / "model.safetensors"))
+    assert all(torch.equal(v, resumed[k]) for k, v in straight.items())
+    prior = UnimanualPrior.from_pretrained(best)
+    assert prior.config.type == "rvt" and prior.observation == "points"
+    before = {k: v.clone() for k, v in prior.state_dict().items()}
+    train_residual(config_from_flat(TrainConfig, prior=str(best), data=str(demo_root / "bimanual"),
+                                    validation_data=str(demo_root / "bimanual"), out=str(tmp_path / "residual"),
+                                    steps=2, checkpoint_every=2, demos=2), prior=prior)
+    assert all(torch.equal(v, prior.state_dict()[k]) for k, v in before.items())  # the frozen prior never learned

@@ -84,7 +84,7 @@ def inference_ms(prior: str, task: str, seed: int, calls: int = 20, threads: int
     frame = KeyframeObservation.from_env(obs, scene_of_env(env))
     per_arm = prior_step.builder.build(frame)
     arm = frame.scene.arm_names[0]
-    voxels = torch.as_tensor(per_arm[arm].voxels)[None]
+    voxels = torch.as_tensor(prior_step.prior.observation_input(per_arm[arm].voxels, per_arm[arm].points))[None]
     proprio = torch.as_tensor(np.r_[per_arm[arm].proprio, 0.0].astype(np.float32))[None]
     text = prior_step.text(frame.instruction)
     prior_step.prior.predict(voxels, proprio, text)  # warm-up

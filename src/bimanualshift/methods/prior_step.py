@@ -41,7 +41,7 @@ class FrozenPriorStep:
         segmented = use_projection or locate_goal
         projection = ArmProjection(make_segmenter(segmenter, **(segmenter_options or {}))) if segmented else None
         self.builder = ArmObservationBuilder(VoxelGrid(tuple(cfg.bounds), cfg.voxel_size), projection,
-                                             mask_voxels=use_projection)
+                                             mask_voxels=use_projection, points=prior.cloud_points)
 
     def text(self, instruction: str) -> torch.Tensor:
         return torch.as_tensor(self.text_encoder.encode([instruction]))
@@ -53,7 +53,8 @@ class FrozenPriorStep:
         steps = {}
         for arm in obs.scene.arm_names:
             proprio = self.prior.arm_proprio(per_arm[arm].proprio, obs.keyframe_index)
-            out = self.prior.predict(torch.as_tensor(per_arm[arm].voxels)[None], torch.as_tensor(proprio)[None], text)
+            scene = self.prior.observation_input(per_arm[arm].voxels, per_arm[arm].points)
+            out = self.prior.predict(torch.as_tensor(scene)[None], torch.as_tensor(proprio)[None], text)
             steps[arm] = ArmStep(frames[arm], proprio, per_arm[arm].other_proprio, out, per_arm[arm].goal)
         return steps
 

@@ -30,6 +30,9 @@ class ArmSamples:
     arm: list[str]
     other_proprio: np.ndarray  # (N, 8) the other arm's proprio in this arm's frame (zeros if single-arm)
     goal: np.ndarray | None = None  # (N, GOAL_GEOMETRY_DIM) the goal's location in the arm's frame
+    # (N, P, 6) float16 the arm's point cloud (arm-frame xyz, rgb), padded to P by repeating points; None unless
+    # the builder keeps clouds (``ArmObservationBuilder(points=P)``, for point-cloud priors)
+    points: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.instructions)
@@ -59,7 +62,20 @@ def build_arm_samples(paths: list[Path], builder: ArmObservationBuilder, max_key
                 rows["arm"].append(arm)
                 rows["other_proprio"].append(per_arm[arm].other_proprio)
                 rows["goal"].append(per_arm[arm].goal)
+                if builder.points:
+                    rows["points"].append(padded_cloud(per_arm[arm].points, builder.points).astype(np.float16))
+    if not builder.points:
+        del rows["points"]
     return ArmSamples(**{k: (v if k in ("instructions", "arm") else np.asarray(v)) for k, v in rows.items()})
+
+
+def padded_cloud(points: np.ndarray | None, size: int) -> np.ndarray:
+    """(size, 6) a cloud of at most ``size`` points padded by repeating its points in order (a repeated point is
+    drawn as itself); an empty cloud becomes points far outside any workspace, which nothing draws."""
+    if points is None or len(points) == 0:
+        return np.tile(np.array([[1e3, 1e3, 1e3, 0, 0, 0]], np.float32), (size, 1))
+    points = points.astype(np.float32)
+    return points[:size] if len(points) >= size else np.resize(points, (size, points.shape[1]))
 
 
 def action_chunks(samples: ArmSamples, horizon: int) -> dict[str, np.ndarray]:

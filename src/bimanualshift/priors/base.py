@@ -31,6 +31,7 @@ from safetensors.torch import save_file
 from torch import nn
 
 from bimanualshift.configs import PRIOR_SIZES, prior_model_config
+from bimanualshift.perception.arm_samples import padded_cloud
 from bimanualshift.utils.config_files import CheckpointError, config_from_dict, load_checked_weights, read_json_file
 from bimanualshift.utils.io import atomic_write_text, atomic_writer
 from bimanualshift.utils.plugins import load_plugins
@@ -68,6 +69,23 @@ class PriorConfig:
 class UnimanualPrior(nn.Module):
     config_class: ClassVar[type[PriorConfig]]
     proprio_weight: ClassVar[str] = ""  # state-dict key of the proprioception's input layer (for widening)
+    # What ``predict``'s first input is: "voxels" (B, 4, S, S, S) occupancy + rgb, or "points" (B, P, 6) the arm's
+    # (masked) point cloud, arm-frame xyz and rgb, P = ``config.num_points`` (see ``observation_input``).
+    observation: ClassVar[str] = "voxels"
+
+    @property
+    def cloud_points(self) -> int:
+        """Points the observation builder must keep per arm (0: this prior reads voxels only)."""
+        return int(getattr(self.config, "num_points", 0)) if self.observation == "points" else 0
+
+    def observation_input(self, voxels: np.ndarray, points: np.ndarray | None) -> np.ndarray:
+        """The array ``predict`` reads for one arm (no batch axis), from that arm's observation."""
+        if self.observation == "voxels":
+            return voxels
+        if points is None:
+            raise ValueError(f"{type(self).__name__} reads point clouds: build observations with "
+                             f"ArmObservationBuilder(..., points={self.cloud_points})")
+        return padded_cloud(points, self.cloud_points)
 
     def __init__(self, config: PriorConfig) -> None:
         super().__init__()

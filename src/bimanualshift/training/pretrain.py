@@ -50,6 +50,8 @@ class PriorBatches:
         chunks = action_chunks(samples, horizon)
         self.actions = {k: torch.as_tensor(v) for k, v in chunks.items()}
         self.voxels = torch.as_tensor(samples.voxels)
+        # a point-cloud prior's observation replaces the voxels in its batches
+        self.points = torch.as_tensor(samples.points) if samples.points is not None else None
         self.proprio = torch.as_tensor(samples.proprio)
         self.text = torch.as_tensor(default_text_encoder().encode(samples.instructions))
 
@@ -59,22 +61,22 @@ class PriorBatches:
     def batch(self, index: torch.Tensor, generator: torch.Generator | None = None,
               augmentation: Se3Augmentation | None = None
               ) -> tuple[tuple[torch.Tensor, ...], dict[str, torch.Tensor]]:
-        voxels = self.voxels[index].float()
+        scene = (self.points if self.points is not None else self.voxels)[index].float()
         proprio = self.proprio[index].clone()
         actions = {k: v[index].clone() for k, v in self.actions.items()}
         if generator is not None and augmentation is not None:
-            voxels, proprio, actions = augment_batch(voxels, proprio, actions, self.grid, augmentation, generator,
-                                                     self.extra_poses)
-        return (voxels, proprio, self.text[index]), actions
+            scene, proprio, actions = augment_batch(scene, proprio, actions, self.grid, augmentation, generator,
+                                                    self.extra_poses)
+        return (scene, proprio, self.text[index]), actions
 
 
-def augment_batch(voxels: torch.Tensor, proprio: torch.Tensor, actions: dict[str, torch.Tensor], grid: VoxelGrid,
+def augment_batch(scene: torch.Tensor, proprio: torch.Tensor, actions: dict[str, torch.Tensor], grid: VoxelGrid,
                   augmentation: Se3Augmentation, generator: torch.Generator, extra_poses: tuple[int, ...] = ()
                   ) -> tuple[torch.Tensor, torch.Tensor, dict[str, torch.Tensor]]:
-    """Move the scene, the gripper's pose in the proprioception (and the further poses starting at
-    ``extra_poses``, e.g. the other arm's) and the action chunk by one random rigid motion per sample; samples
-    whose targets would leave the grid stay as they were."""
-    yaw, translation = augmentation.sample(generator, len(voxels))
+    """Move the scene (voxels (B, 4, S, S, S), or a point cloud (B, P, 6)), the gripper's pose in the
+    proprioception (and the further poses starting at ``extra_poses``, e.g. the other arm's) and the action chunk
+    by one random rigid motion per sample; samples whose targets would leave the grid stay as they were."""
+    yaw, translation = augmentation.sample(generator, len(scene))
     moved = transform_points(actions["position"], grid, yaw, translation)
     lower, upper = torch.as_tensor(grid.lower), torch.as_tensor(grid.upper)
     inside = ((moved >= lower) & (moved < upper)).all(-1).all(-1)
@@ -85,7 +87,11 @@ def augment_batch(voxels: torch.Tensor, proprio: torch.Tensor, actions: dict[str
     for start in (0, *extra_poses):
         proprio[:, start:start + 3] = transform_points(proprio[:, start:start + 3], grid, yaw, translation)
         proprio[:, start + 3:start + 7] = transform_quats(proprio[:, start + 3:start + 7], yaw)
-    return transform_voxels(voxels, grid, yaw, translation), proprio, actions
+    if scene.dim() == 3:  # a cloud: its points move, their colours stay
+        moved_scene = torch.cat([transform_points(scene[..., :3], grid, yaw, translation), scene[..., 3:]], -1)
+    else:
+        moved_scene = transform_voxels(scene, grid, yaw, translation)
+    return moved_scene, proprio, actions
 
 
 def global_batch_shard(batches: PriorBatches, index: torch.Tensor, generator: torch.Generator,
@@ -185,7 +191,7 @@ def pretrain(cfg: PretrainConfig) -> Path:
                          f"with --prior {model.config.type}")
     prior_cfg = model.config
     grid = VoxelGrid(tuple(prior_cfg.bounds), prior_cfg.voxel_size)
-    builder = ArmObservationBuilder(grid)
+    builder = ArmObservationBuilder(grid, points=model.cloud_points)
     tasks = resolve_task_names(ds.tasks)
     bimanual = [t for t in tasks if t in task_names(bimanual=True)]
     if bimanual:

@@ -69,13 +69,17 @@ def residual_data(config: ResidualConfig, paths: list[Path], prior_step: FrozenP
     generator = torch.Generator().manual_seed(seed)
     parts = []
     for copy in range(1 + augment_copies):
-        voxels = torch.as_tensor(samples.voxels).float()
+        clouds = prior_step.prior.observation == "points"
+        scene = torch.as_tensor(samples.points if clouds else samples.voxels).float()
         offsets = np.zeros((len(samples), 3), np.float32)
         if copy > 0:
             for j in range(len(samples)):
                 shift = random_shift(generator, augment_max_voxels)
-                voxels[j] = shift_voxels(voxels[j], shift)
                 offsets[j] = np.asarray(shift) * grid.voxel_size
+                if clouds:
+                    scene[j, :, :3] += torch.as_tensor(offsets[j])
+                else:
+                    scene[j] = shift_voxels(scene[j], shift)
         proprio = torch.as_tensor(samples.proprio).clone()
         other = torch.as_tensor(samples.other_proprio).clone()
         proprio[:, :3] += torch.as_tensor(offsets)
@@ -85,7 +89,7 @@ def residual_data(config: ResidualConfig, paths: list[Path], prior_step: FrozenP
         with torch.no_grad():
             for start in range(0, len(samples), 32):
                 sl = slice(start, start + 32)
-                out = prior_step.prior.predict(voxels[sl], proprio[sl], prior_text[sl])
+                out = prior_step.prior.predict(scene[sl], proprio[sl], prior_text[sl])
                 features.append(out.features)
                 base.append(out.base_action())
         features_t, base_t = torch.cat(features), torch.cat(base)
