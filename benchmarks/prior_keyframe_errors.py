@@ -29,16 +29,21 @@ from bimanualshift.sim.task import resolve_task_names
 from bimanualshift.training.pretrain import PriorBatches
 
 
-def keyframe_errors(model: UnimanualPrior, batches: PriorBatches) -> tuple[np.ndarray, np.ndarray]:
-    """Translation error (m) and rotation error (degrees) of the first predicted action per keyframe."""
-    trans, rot = [], []
-    for start in range(0, len(batches), 16):
-        inputs, actions = batches.batch(torch.arange(start, min(start + 16, len(batches))))
-        pred = model.predict(*inputs)
-        trans += (pred.position - actions["position"][:, 0]).norm(dim=-1).tolist()
-        dot = (pred.quat * actions["quat"][:, 0]).sum(-1).abs().clamp(max=1.0)
-        rot += torch.rad2deg(2 * torch.arccos(dot)).tolist()
-    return np.asarray(trans), np.asarray(rot)
+def keyframe_errors(model: UnimanualPrior, batches: PriorBatches) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    """Translation error (m) and rotation error (degrees) of the first predicted action per keyframe, and a
+    coarse-to-fine prior's first-stage translation error (None for single-stage priors)."""
+    trans, rot, coarse = [], [], []
+    with torch.no_grad():
+        for start in range(0, len(batches), 16):
+            inputs, actions = batches.batch(torch.arange(start, min(start + 16, len(batches))))
+            pred = model.predict(*inputs)
+            target = actions["position"][:, 0]
+            trans += (pred.position - target).norm(dim=-1).tolist()
+            if pred.coarse_position is not None:
+                coarse += (pred.coarse_position - target).norm(dim=-1).tolist()
+            dot = (pred.quat * actions["quat"][:, 0]).sum(-1).abs().clamp(max=1.0)
+            rot += torch.rad2deg(2 * torch.arccos(dot)).tolist()
+    return np.asarray(trans), np.asarray(rot), (np.asarray(coarse) if coarse else None)
 
 
 def main() -> None:
@@ -55,17 +60,19 @@ def main() -> None:
     for name in args.prior:
         model = UnimanualPrior.from_pretrained(name).freeze()
         grid = VoxelGrid(tuple(model.config.bounds), model.config.voxel_size)
-        builder = ArmObservationBuilder(grid)
+        builder = ArmObservationBuilder(grid, points=model.cloud_points)
         for task in tqdm(tasks, desc=f"keyframe errors {name}"):
             paths = list_episodes(args.data, task)
             if not paths:
                 sys.exit(f"no validation demos for {task} under {args.data}; collect them with "
                          f"`bimanualshift collect --task {task} --split validation --out {args.data}`")
             seeds |= {int(p.stem.rsplit("_", 1)[1]) for p in paths}  # episode_<seed>.h5
-            samples = build_arm_samples(paths, builder, desc=None)
-            trans, rot = keyframe_errors(model, PriorBatches(samples, grid, model.action_horizon))
+            samples = build_arm_samples(paths, builder, model.config.max_keyframes, desc=None)
+            trans, rot, coarse = keyframe_errors(model, PriorBatches(samples, grid, model.action_horizon))
+            stage_one = {} if coarse is None else {
+                "median_translation_cm_stage1": round(100 * float(np.median(coarse)), 2)}
             rows.append({"prior": name, "task": task, "episodes": len(paths), "keyframes": len(trans),
-                         "median_translation_cm": round(100 * float(np.median(trans)), 2),
+                         **stage_one, "median_translation_cm": round(100 * float(np.median(trans)), 2),
                          "within_2cm": round(float(np.mean(trans < 0.02)), 3),
                          "within_3cm": round(float(np.mean(trans < 0.03)), 3),
                          "median_rotation_deg": round(float(np.median(rot)), 1),

@@ -98,6 +98,7 @@ def inference_ms(prior: str, task: str, seed: int, calls: int = 20, threads: int
 
 def prior_rows(priors: list[str], episodes: list[PriorEpisode], tasks: list[str], seed: int) -> list[dict]:
     from bimanualshift.priors.base import resolve_prior_path
+    from bimanualshift.sim.task import task_class
 
     rows = []
     for prior in priors:
@@ -112,9 +113,16 @@ def prior_rows(priors: list[str], episodes: list[PriorEpisode], tasks: list[str]
             rate = SuccessRate.of(e.success for e in mine).fields()
             per_task[task] = {"success": rate["success"], "ci95": rate["ci95"], "episodes": rate["episodes"],
                               "failed_seeds": [e.seed for e in mine if not e.success]}
+        original = [t for t in tasks if not task_class(t).added_skill]
+        added = [t for t in tasks if task_class(t).added_skill]
+
+        def mean(names: list[str], per_task: dict = per_task) -> float | None:
+            return round(float(np.mean([per_task[t]["success"] for t in names])), 4) if names else None
+
         rows.append({
             "prior": prior, "type": config["type"],
-            "mean_success": round(float(np.mean([v["success"] for v in per_task.values()])), 4),
+            # the original nine single-arm tasks, apart from the skills added later (Task.added_skill)
+            "mean_success": mean(original), "mean_success_added_skills": mean(added),
             "tasks": per_task, "parameters": sum(p.numel() for p in model.parameters()),
             "inference_ms_per_arm": round(inference_ms(prior, tasks[0], seed), 1),
             "training_time_s": config.get("training_time_s"), "trained_steps": config.get("trained_steps"),

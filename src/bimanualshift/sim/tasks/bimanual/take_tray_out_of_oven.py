@@ -34,7 +34,10 @@ class TakeTrayOutOfOven(Task):
 
     def initialize_episode(self, sim: SimHandle, rng: np.random.Generator) -> None:
         frame = place_oven(sim, rng, "oven", MOUTH_X, MOUTH_Y, YAW)
-        place_tray(sim, frame, "tray", rng.uniform(-0.04, -0.01))  # off-centre: see expert_keyframes
+        # Off-centre towards the side the oven's mouth is turned to, so the arm it faces takes the tray (see
+        # roles): an arm reaching round a mouth turned away from it misses the tab.
+        towards = -1.0 if frame.yaw >= 0 else 1.0
+        place_tray(sim, frame, "tray", towards * rng.uniform(0.01, 0.04))
         colour = self.pick_colours(rng, 1)[0]
         sim.set_rgb_prefix("tray_", self.palette[colour])
         self.episode = {"colour": colour, "phrasing": int(rng.integers(len(PHRASINGS)))}

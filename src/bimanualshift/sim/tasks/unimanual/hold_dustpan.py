@@ -19,6 +19,7 @@ STILL_WITHIN = 0.02  # metres the pan may move while it is taken
 @register_task("hold_dustpan")
 class HoldDustpan(SweepTask):
     bimanual = False
+    added_skill = True
 
     def initialize_episode(self, sim: SimHandle, rng: np.random.Generator) -> None:
         place_sweep_scene(sim, rng, "dustpan", "brush", SWEEP_DIRT, shift_y=rng.uniform(*SHIFT_Y))

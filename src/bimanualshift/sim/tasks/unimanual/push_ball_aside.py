@@ -24,6 +24,7 @@ PUSH = 0.10  # then goes on this far inside it
 @register_task("push_ball_aside")
 class PushBallAside(Task):
     bimanual = False
+    added_skill = True
 
     def scene_xml(self) -> str:
         return ball_xml("ball", cube=self.perturbations.unseen_shapes)
