@@ -13,15 +13,19 @@ def _inputs(model, seed: int = 0) -> tuple[torch.Tensor, torch.Tensor, torch.Ten
     g = torch.Generator().manual_seed(seed)
     s = model.config.voxel_size
     voxels = (torch.rand(2, 4, s, s, s, generator=g) > 0.9).float()
+    if model.observation == "points":  # a random coloured cloud filling the arm-frame workspace
+        lower, upper = (torch.as_tensor(b, dtype=torch.float32) for b in np.reshape(model.config.bounds, (2, 3)))
+        xyz = lower + (upper - lower) * torch.rand(2, model.cloud_points, 3, generator=g)
+        voxels = torch.cat([xyz, torch.rand(2, model.cloud_points, 3, generator=g)], -1)
     proprio = torch.rand(2, model.config.proprio_dim + 1, generator=g)
     return voxels, proprio, torch.rand(2, model.config.text_dim, generator=g)
 
 
-@pytest.mark.parametrize("kind", ["peract", "diffusion", "act"])
+@pytest.mark.parametrize("kind", ["peract", "diffusion", "act", "rvt"])
 def test_local_features_are_read_where_asked(kind: str) -> None:
     model = build_prior(kind, "debug").freeze()
     voxels, proprio, text = _inputs(model)
-    lower, upper = np.asarray(model.grid.lower), np.asarray(model.grid.upper)
+    lower, upper = np.reshape(model.config.bounds, (2, 3))
     near, far = lower + 0.1 * (upper - lower), lower + 0.9 * (upper - lower)
     with torch.no_grad():
         a = model.local_features(voxels, proprio, text, torch.as_tensor(np.stack([near, near]), dtype=torch.float32))
