@@ -45,14 +45,21 @@ def test_pretrain_resume_matches_uninterrupted(demo_root: Path, tiny_prior: Path
     assert (tiny_prior / "config.json").is_file() and (tiny_prior / "model.safetensors").is_file()
 
 
-def test_diffusion_prior_pretrains_resumes_and_loads(demo_root: Path, tmp_path: Path) -> None:
-    pretrain(pretrain_cfg(demo_root, tmp_path / "a", steps=2, prior="dp"))
-    best = pretrain(pretrain_cfg(demo_root, tmp_path / "a", steps=4, prior="dp"))
-    pretrain(pretrain_cfg(demo_root, tmp_path / "b", steps=4, prior="dp"))
+def pretrain_resumed_and_straight(demo_root: Path, tmp_path: Path, prior: str) -> Path:
+    """Pretrain ``prior`` 2 steps and resume to 4, and 4 steps straight: asserts the weights are bit-identical;
+    returns the resumed run's best checkpoint."""
+    pretrain(pretrain_cfg(demo_root, tmp_path / "a", steps=2, prior=prior))
+    best = pretrain(pretrain_cfg(demo_root, tmp_path / "a", steps=4, prior=prior))
+    pretrain(pretrain_cfg(demo_root, tmp_path / "b", steps=4, prior=prior))
     resumed = load_file(str(latest_checkpoint(tmp_path / "a") / "model.safetensors"))
     straight = load_file(str(latest_checkpoint(tmp_path / "b") / "model.safetensors"))
     for key, value in straight.items():
         assert torch.equal(value, resumed[key]), key
+    return best
+
+
+def test_diffusion_prior_pretrains_resumes_and_loads(demo_root: Path, tmp_path: Path) -> None:
+    best = pretrain_resumed_and_straight(demo_root, tmp_path, "dp")
     prior = UnimanualPrior.from_pretrained(best)
     assert prior.config.type == "diffusion" and "Diffusion Policy" in (best / "README.md").read_text()
     assert torch.all(prior.action_low[:3] < prior.action_high[:3])  # normalisation fitted to the demos
@@ -234,12 +241,7 @@ def test_prior_report_resumes_from_its_episode_log(tiny_prior: Path, tmp_path: P
 
 
 def test_rvt_prior_pretrains_resumes_and_serves_the_residual_frozen(demo_root: Path, tmp_path: Path) -> None:
-    pretrain(pretrain_cfg(demo_root, tmp_path / "a", steps=2, prior="rvt"))
-    best = pretrain(pretrain_cfg(demo_root, tmp_path / "a", steps=4, prior="rvt"))
-    pretrain(pretrain_cfg(demo_root, tmp_path / "b", steps=4, prior="rvt"))
-    resumed = load_file(str(latest_checkpoint(tmp_path / "a") / "model.safetensors"))
-    straight = load_file(str(latest_checkpoint(tmp_path / "b") / "model.safetensors"))
-    assert all(torch.equal(v, resumed[k]) for k, v in straight.items())
+    best = pretrain_resumed_and_straight(demo_root, tmp_path, "rvt")
     prior = UnimanualPrior.from_pretrained(best)
     assert prior.config.type == "rvt" and prior.observation == "points"
     before = {k: v.clone() for k, v in prior.state_dict().items()}
