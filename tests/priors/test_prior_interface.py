@@ -21,7 +21,7 @@ def test_named_sizes_reject_unknown_names() -> None:
     with pytest.raises(ValueError, match="choose from"):
         prior_model_config("peract", "huge")
     with pytest.raises(ValueError, match="no named sizes"):
-        prior_model_config("rvt", "default")
+        prior_model_config("no_such_type", "default")
 
 
 def test_action_chunks_follow_each_arm_and_repeat_the_last_keyframe() -> None:
