@@ -14,6 +14,9 @@ def test_shipped_priors_resolve_by_name_and_unknown_names_fail_clearly(tmp_path:
     assert resolve_prior_path(tmp_path) == tmp_path
     with pytest.raises(FileNotFoundError, match="no shipped prior of that name"):
         resolve_prior_path("no_such_prior")
+    # the checkpoints shipped before the widened suite also load by their versioned names
+    assert resolve_prior_path("peract_suite_v1") == resolve_prior_path("peract_suite")
+    assert resolve_prior_path("dp_suite_v1").name == "dp_suite"
 
 
 def test_named_sizes_reject_unknown_names() -> None:

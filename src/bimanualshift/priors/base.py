@@ -183,11 +183,19 @@ def shipped_priors() -> list[str]:
     return sorted(p.name for p in SHIPPED_DIR.iterdir() if (p / "config.json").is_file())
 
 
+# Versioned names of the checkpoints shipped before the single-arm suite was widened (their folders keep their
+# first names, which the committed result files use): both spellings load the same weights.
+VERSIONED_PRIORS = {"peract_suite_v1": "peract_suite", "dp_suite_v1": "dp_suite",
+                    "peract_unimanual_v1": "peract_unimanual"}
+
+
 def resolve_prior_path(name_or_path: str | Path) -> Path:
-    """A directory as given, or the shipped checkpoint of that name; a clear error for neither."""
+    """A directory as given, or the shipped checkpoint of that name (or versioned name); a clear error for
+    neither."""
     path = Path(name_or_path)
     if path.is_dir():
         return path
+    path = Path(VERSIONED_PRIORS.get(str(name_or_path), str(name_or_path)))
     if len(path.parts) == 1 and (SHIPPED_DIR / path).is_dir():
         return SHIPPED_DIR / path
     raise FileNotFoundError(f"no prior checkpoint directory {name_or_path!r} and no shipped prior of that name; "
