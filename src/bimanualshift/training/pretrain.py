@@ -143,7 +143,8 @@ def model_card(cfg: PretrainConfig, kind: str, step: int, accuracy: float, train
         f"--split validation --out {ds.validation_data} --workers 2",
         f"bimanualshift pretrain --prior {net.prior} --size {net.size} --tasks {tasks} --data {ds.data} "
         f"--validation-data {ds.validation_data} --steps {opt.steps} --batch-size {opt.batch_size} "
-        f"--lr {opt.lr} --optimizer {opt.optimizer} --seed {opt.seed}{overrides}"
+        f"--lr {opt.lr} --optimizer {opt.optimizer} --seed {opt.seed} --checkpoint-every {opt.checkpoint_every}"
+        f"{overrides}"
         + (f" --schedule {opt.schedule} --warmup-steps {opt.warmup_steps}" if opt.schedule != "constant" else "")
         + (f" --init-from {net.init_from}" if net.init_from else ""),
     ])
