@@ -26,24 +26,8 @@ from bimanualshift.perception.arm_samples import build_arm_samples
 from bimanualshift.perception.observation import ArmObservationBuilder
 from bimanualshift.priors import UnimanualPrior
 from bimanualshift.sim.task import resolve_task_names
+from bimanualshift.training.keyframe_errors import keyframe_errors
 from bimanualshift.training.pretrain import PriorBatches
-
-
-def keyframe_errors(model: UnimanualPrior, batches: PriorBatches) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
-    """Translation error (m) and rotation error (degrees) of the first predicted action per keyframe, and a
-    coarse-to-fine prior's first-stage translation error (None for single-stage priors)."""
-    trans, rot, coarse = [], [], []
-    with torch.no_grad():
-        for start in range(0, len(batches), 16):
-            inputs, actions = batches.batch(torch.arange(start, min(start + 16, len(batches))))
-            pred = model.predict(*inputs)
-            target = actions["position"][:, 0]
-            trans += (pred.position - target).norm(dim=-1).tolist()
-            if pred.coarse_position is not None:
-                coarse += (pred.coarse_position - target).norm(dim=-1).tolist()
-            dot = (pred.quat * actions["quat"][:, 0]).sum(-1).abs().clamp(max=1.0)
-            rot += torch.rad2deg(2 * torch.arccos(dot)).tolist()
-    return np.asarray(trans), np.asarray(rot), (np.asarray(coarse) if coarse else None)
 
 
 def main() -> None:

@@ -17,7 +17,7 @@ PRIOR_SIZES: dict[str, dict[str, dict[str, Any]]] = {
                   "train_timesteps": 20, "inference_steps": 3},
     },
     "rvt": {
-        "default": {},  # RVTConfig defaults: 4096 points, 3 views of 48^2, 4 layers of width 96 per stage
+        "default": {},  # RVTConfig defaults: 32,768 points, 3 views of 48^2, 4 layers of width 96 per stage
         "debug": {"voxel_size": 16, "num_points": 256, "image_size": 16, "patch_size": 4, "dim": 32, "layers": 1,
                   "heads": 2, "decoder_dim": 8, "lift_grid": 8, "rotation_bin_degrees": 30.0},
     },

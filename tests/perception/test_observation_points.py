@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from bimanualshift.data.frames import KeyframeObservation, scene_of_env
 from bimanualshift.geometry.voxels import VoxelGrid
@@ -21,6 +22,8 @@ def test_points_are_the_voxels_pixels_in_the_arm_frame() -> None:
     full = ArmObservationBuilder(grid, points=100_000).build(frame)
     masked = ArmObservationBuilder(grid, ArmProjection(make_segmenter("simulator")), points=100_000).build(frame)
     capped = ArmObservationBuilder(grid, points=50).build(frame)
+    cloud_only = ArmObservationBuilder(grid, ArmProjection(make_segmenter("simulator")), points=100_000,
+                                       voxels=False).build(frame)
     assert ArmObservationBuilder(grid).build(frame)["left"].points is None
     for arm in ("left", "right"):
         points = full[arm].points
@@ -33,4 +36,12 @@ def test_points_are_the_voxels_pixels_in_the_arm_frame() -> None:
             assert np.all(obs_arm.voxels[0][tuple(idx.T)] > 0)
         assert 0 < len(masked[arm].points) < len(points)  # the projection removes the other arm's pixels
         assert len(capped[arm].points) == 50
+        # a cloud prior's builder skips the voxels and keeps the very same (masked) cloud
+        assert cloud_only[arm].voxels is None
+        np.testing.assert_array_equal(cloud_only[arm].points, masked[arm].points)
     assert not np.allclose(full["left"].points[:10, :3], full["right"].points[:10, :3])  # two frames
+
+
+def test_a_builder_without_voxels_must_keep_points() -> None:
+    with pytest.raises(ValueError, match="must keep points"):
+        ArmObservationBuilder(VoxelGrid(DEFAULT_ARM_BOUNDS, 32), voxels=False)

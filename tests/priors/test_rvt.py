@@ -140,3 +140,14 @@ def test_save_load_gives_identical_predictions_and_freezing_keeps_weights(tmp_pa
     assert set(before.logits) >= {"translation", "rotation", "gripper", "collision"}
     with pytest.raises(ValueError, match="point clouds"):
         model.observation_input(np.zeros((4, 16, 16, 16), np.float32), None)
+
+
+def test_loading_overrides_fields_that_keep_the_weights_and_refuses_others(tmp_path: Path) -> None:
+    model = build_prior("rvt", "debug").freeze()
+    folder = model.save_pretrained(tmp_path / "rvt")
+    denser = UnimanualPrior.from_pretrained(folder, {"num_points": 1024}).freeze()
+    assert denser.cloud_points == 1024 and model.cloud_points == 256
+    inputs, _ = _synthetic(2, seed=3)  # 256 points: the same cloud, the same weights, the same prediction
+    assert torch.equal(model.predict(*inputs).position, denser.predict(*inputs).position)
+    with pytest.raises(ValueError, match="coarse"):
+        UnimanualPrior.from_pretrained(folder, {"dim": 48})  # every tensor of that width is named

@@ -33,3 +33,22 @@ def test_resumed_run_reports_the_training_time_of_every_invocation(tmp_path: Pat
     assert resumed["history"][0]["step"] == 2  # the resumed run kept the first run's history
     assert resumed["training_time_s"] == resumed["history"][-1]["elapsed_s"]
     assert resumed["training_time_s"] > first["training_time_s"]
+
+
+def test_history_logs_interval_means_and_validation_details(tmp_path: Path) -> None:
+    model = torch.nn.Linear(1, 1, bias=False)
+    optimizer = torch.optim.SGD(model.parameters(), lr=0.0)  # no learning: the loss is the step's own value
+
+    def step_fn(step: int, gen: torch.Generator) -> dict[str, torch.Tensor]:
+        return {"total": model.weight.sum() * 0 + float(step)}
+
+    def validate(step: int) -> dict[str, float]:
+        return {"value": -step, "median_cm": 1.0 / (step + 1)}
+
+    out = loop.run_training(tmp_path, model, optimizer, 6, step_fn, seed=0, checkpoint_every=3,
+                            validate_fn=validate)
+    rows = out["history"]
+    assert [r["step"] for r in rows] == [0, 3, 6]
+    assert rows[1]["total"] == 1.0 and rows[2]["total"] == 4.0  # means of steps 0-2 and 3-5, not the last batch
+    assert rows[2]["validation"] == -6 and rows[2]["validation_median_cm"] == 1 / 7
+    assert out["best"]["step"] == 6

@@ -12,7 +12,7 @@ from safetensors.torch import load_file
 
 from bimanualshift.training.checkpoint import latest_checkpoint
 from bimanualshift.training.optim import MIN_LR_FACTOR, lr_factor
-from bimanualshift.training.pretrain import pretrain
+from bimanualshift.training.pretrain import first_demos, pretrain
 from tests.training.test_train_resume import pretrain_cfg
 
 
@@ -55,3 +55,27 @@ def test_pretraining_continues_from_a_trained_prior(demo_root: Path, tmp_path: P
     assert config["trained_steps"] == earlier["trained_steps"]
     with pytest.raises(ValueError, match="is a peract prior, not diffusion"):
         pretrain(replace(cfg, network=replace(cfg.network, prior="dp")))
+
+
+def test_first_demos_are_the_lowest_seeds_so_smaller_volumes_are_subsets() -> None:
+    paths = [Path(f"data/t/episode_{s}.h5") for s in (10, 2, 100000, 1, 33)]  # glob order is by name, not seed
+    assert [p.stem for p in first_demos(paths, 3)] == ["episode_1", "episode_2", "episode_10"]
+    assert len(first_demos(paths, 0)) == 5 and first_demos(paths, 9)[-1].stem == "episode_100000"
+
+
+def test_pretraining_on_fewer_demos_per_task_is_recorded(demo_root: Path, tmp_path: Path) -> None:
+    cfg = pretrain_cfg(demo_root, tmp_path / "one", steps=0)
+    best = pretrain(replace(cfg, dataset=replace(cfg.dataset, episodes_per_task=1)))
+    tasks = json.loads((best / "config.json").read_text())["pretrain_tasks"]
+    assert json.loads((best / "config.json").read_text())["train_episodes"] == len(tasks)  # one demo per task
+    assert "--episodes-per-task 1" in (best / "README.md").read_text()  # the model card reproduces it
+    with pytest.raises(ValueError, match="episodes-per-task"):
+        pretrain(replace(cfg, dataset=replace(cfg.dataset, episodes_per_task=-1)))
+
+
+def test_continuing_a_cloud_prior_may_read_a_denser_cloud(demo_root: Path, tmp_path: Path) -> None:
+    first = pretrain(pretrain_cfg(demo_root, tmp_path / "rvt", steps=0, prior="rvt"))
+    cfg = pretrain_cfg(demo_root, tmp_path / "denser", steps=0, prior="rvt")
+    cfg = replace(cfg, network=replace(cfg.network, init_from=str(first), model={"num_points": 512}))
+    config = json.loads((pretrain(cfg) / "config.json").read_text())
+    assert config["num_points"] == 512 and json.loads((first / "config.json").read_text())["num_points"] == 256

@@ -18,7 +18,7 @@ from bimanualshift.perception.observation import ArmObservationBuilder
 class ArmSamples:
     """N samples of one arm's view; actions are targets in that arm's base frame."""
 
-    voxels: np.ndarray  # (N, 4, S, S, S) float16
+    voxels: np.ndarray | None  # (N, 4, S, S, S) float16; None when the builder skips voxels (point-cloud priors)
     proprio: np.ndarray  # (N, 9): arm-frame proprio (8) + keyframe fraction
     instructions: list[str]
     action_pos: np.ndarray  # (N, 3) arm frame
@@ -50,7 +50,8 @@ def build_arm_samples(paths: list[Path], builder: ArmObservationBuilder, max_key
                 frame = ArmFrame(tuple(episode.arm_bases[arm]))
                 act = episode["actions"][k, i]
                 pos, quat = frame.pose_to_arm(act[:3], act[3:7])
-                rows["voxels"].append(per_arm[arm].voxels.astype(np.float16))
+                if builder.voxels:
+                    rows["voxels"].append(per_arm[arm].voxels.astype(np.float16))
                 rows["proprio"].append(np.r_[per_arm[arm].proprio, k / max_keyframes].astype(np.float32))
                 rows["instructions"].append(episode.instruction)
                 rows["action_pos"].append(pos.astype(np.float32))
@@ -64,9 +65,11 @@ def build_arm_samples(paths: list[Path], builder: ArmObservationBuilder, max_key
                 rows["goal"].append(per_arm[arm].goal)
                 if builder.points:
                     rows["points"].append(padded_cloud(per_arm[arm].points, builder.points).astype(np.float16))
-    if not builder.points:
-        del rows["points"]
-    return ArmSamples(**{k: (v if k in ("instructions", "arm") else np.asarray(v)) for k, v in rows.items()})
+    for key, kept in (("points", builder.points), ("voxels", builder.voxels)):
+        if not kept:
+            del rows[key]
+    return ArmSamples(**{k: (v if k in ("instructions", "arm") else np.asarray(v)) for k, v in rows.items()},
+                      **{k: None for k in ("points", "voxels") if k not in rows})
 
 
 def padded_cloud(points: np.ndarray | None, size: int) -> np.ndarray:

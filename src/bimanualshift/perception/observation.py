@@ -21,7 +21,7 @@ DEFAULT_ARM_BOUNDS = (0.2, -0.45, -0.15, 0.9, 0.45, 0.35)
 
 @dataclass
 class ArmObservation:
-    voxels: np.ndarray  # (4, S, S, S) float32 occupancy + rgb, arm frame
+    voxels: np.ndarray | None  # (4, S, S, S) float32 occupancy + rgb, arm frame; None if the builder skips voxels
     proprio: np.ndarray  # (8,) position, quaternion, gripper open in the arm frame
     other_proprio: np.ndarray  # (8,) the other arm's proprio in this arm's frame; zeros for a single arm
     # (GOAL_GEOMETRY_DIM,) the goal's location in this arm's frame (zeros without a projection or a seen goal)
@@ -68,11 +68,15 @@ class ArmObservationBuilder:
     """
 
     def __init__(self, grid: VoxelGrid, projection: ArmProjection | None = None, mask_voxels: bool = True,
-                 points: int = 0) -> None:
+                 points: int = 0, voxels: bool = True) -> None:
         self.grid = grid
         self.projection = projection
         self.mask_voxels = mask_voxels  # False: segment only to locate the goal, the voxels stay global
         self.points = points  # > 0: also each arm's point cloud, at most this many points (a fixed subsample)
+        # False: no voxel grid (a point-cloud prior's pretraining never reads one; 256 KB a sample at 32^3)
+        self.voxels = voxels
+        if not voxels and not points:
+            raise ValueError("an ArmObservationBuilder without voxels must keep points (points > 0)")
 
     def build(self, obs: KeyframeObservation) -> dict[str, ArmObservation]:
         masks, goal_mask = self.projection.project(obs) if self.projection else (None, None)
@@ -82,10 +86,11 @@ class ArmObservationBuilder:
         n = len(obs.scene.arm_names)
         for i, (arm, frame) in enumerate(arm_frames(obs).items()):
             index = pixel_voxel_index(obs.depth, obs.intrinsics, obs.extrinsics, self.grid, frame.world_to_base)
-            voxels = voxelize_pixels(index, obs.rgb, self.grid.size)
+            voxels = voxelize_pixels(index, obs.rgb, self.grid.size) if self.voxels else None
             keep = index >= 0
             if masks is not None and self.mask_voxels:
-                voxels *= voxel_occupancy(index, masks[arm], self.grid.size)
+                if voxels is not None:
+                    voxels *= voxel_occupancy(index, masks[arm], self.grid.size)
                 keep &= masks[arm]
             other = proprio_in_arm_frame(obs.proprio[1 - i], frame) if n == 2 else np.zeros(8, np.float32)
             cloud = arm_point_cloud(world, keep, frame, self.points) if world is not None else None

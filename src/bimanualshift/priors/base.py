@@ -152,15 +152,17 @@ class UnimanualPrior(nn.Module):
         return directory
 
     @staticmethod
-    def from_pretrained(directory: str | Path) -> UnimanualPrior:
-        """Load from a checkpoint directory, or by the name of a shipped checkpoint (see ``shipped_priors``)."""
+    def from_pretrained(directory: str | Path, overrides: dict[str, Any] | None = None) -> UnimanualPrior:
+        """Load from a checkpoint directory, or by the name of a shipped checkpoint (see ``shipped_priors``).
+        ``overrides`` change config fields that leave the weights' shapes alone (e.g. how many points a cloud
+        prior reads, when pretraining continues); one that changes a tensor's shape is refused by name."""
         directory = resolve_prior_path(directory)
         cfg_path, weights = directory / "config.json", directory / "model.safetensors"
         for p in (cfg_path, weights):
             if not p.is_file():
                 raise FileNotFoundError(f"prior checkpoint {directory} has no {p.name}; expected config.json and "
                                         "model.safetensors (train one with `bimanualshift pretrain`)")
-        raw = read_json_file(cfg_path, "prior's config")
+        raw = {**read_json_file(cfg_path, "prior's config"), **(overrides or {})}
         kind = raw.get("type")
         if kind not in PRIORS:
             load_plugins()  # a user's prior type, registered by a plugin

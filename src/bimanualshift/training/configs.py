@@ -37,6 +37,7 @@ class PriorDataConfig:
     tasks: list[str] = field(default_factory=lambda: ["unimanual"])  # task names or the group 'unimanual'
     data: str = "data/unimanual"
     validation_data: str = "data/unimanual_val"
+    episodes_per_task: int = 0  # train on each task's first N demos by seed (0: all of them; the data-volume study)
     augment_translation_m: float = 0.04  # SE(3) augmentation: horizontal shift ...
     augment_yaw_deg: float = 15.0  # ... and yaw about the grid's vertical axis; 0 and 0 turn it off
 
@@ -49,7 +50,8 @@ class PriorNetworkConfig:
     size: str = "default"  # a named model size from bimanualshift.configs (default, debug, ...)
     model: dict = field(default_factory=dict)  # overrides of the prior's config fields, e.g. {"dim": 64}
     # Continue from a trained prior (a folder or a shipped name): its architecture, weights and normalisation
-    # (type, size and model are then read from it); a run of its own, with a fresh optimiser and schedule.
+    # (type and size are then read from it, ``model`` overrides fields that keep the weights' shapes, e.g.
+    # {"num_points": 16384}); a run of its own, with a fresh optimiser and schedule.
     init_from: str = ""
 
 

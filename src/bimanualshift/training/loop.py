@@ -21,7 +21,15 @@ from bimanualshift.training.distributed import Distributed
 from bimanualshift.utils.io import atomic_write_json
 
 StepFn = Callable[[int, torch.Generator], dict[str, torch.Tensor]]
-ValidateFn = Callable[[int], float]  # lower is better
+# Lower is better; a dict gives the value under "value" and further figures to log beside it (e.g. median errors).
+ValidateFn = Callable[[int], "float | dict[str, float]"]
+
+
+def _validation(validate_fn: ValidateFn, step: int) -> tuple[float, dict[str, float]]:
+    result = validate_fn(step)
+    if isinstance(result, dict):
+        return float(result["value"]), {f"validation_{k}": v for k, v in result.items() if k != "value"}
+    return float(result), {}
 
 
 def step_generator(seed: int, step: int) -> torch.Generator:
@@ -51,11 +59,17 @@ def run_training(run_dir: str | Path, model: nn.Module, optimizer: torch.optim.O
         # The untrained model is a candidate too: a residual branch that starts as the identity must beat
         # the frozen prior alone on validation data before a trained checkpoint replaces it.
         model.eval()
-        best = {"step": 0, "value": float(validate_fn(0))}
-        history.append({"step": 0, "elapsed_s": 0.0, "validation": best["value"]})
+        value, details = _validation(validate_fn, 0)
+        best = {"step": 0, "value": value}
+        history.append({"step": 0, "elapsed_s": 0.0, "validation": value, **details})
         if on_best is not None:
             on_best(0, best["value"], 0.0)
     bar = tqdm(range(start, steps), initial=start, total=steps, desc=desc, unit="step", disable=not ctx.is_main)
+    # Losses are logged as their mean over the steps since the last checkpoint (one batch's value is too noisy
+    # to tell a stage that learns from one that does not); the sums restart at every checkpoint, so a resumed
+    # run logs what an uninterrupted one would.
+    sums: dict[str, float] = {}
+    counted = 0
     for step in bar:
         model.train()
         if lr_factor is not None:
@@ -65,16 +79,24 @@ def run_training(run_dir: str | Path, model: nn.Module, optimizer: torch.optim.O
         optimizer.zero_grad(set_to_none=True)
         losses["total"].backward()
         optimizer.step()
-        logged = {k: round(float(ctx.mean(v.detach())), 5) for k, v in losses.items()}
-        bar.set_postfix(loss=logged["total"])
+        logged = {k: float(ctx.mean(v.detach())) for k, v in losses.items()}
+        for k, v in logged.items():
+            sums[k] = sums.get(k, 0.0) + v
+        counted += 1
+        bar.set_postfix(loss=round(logged["total"], 4))
         done = step + 1
-        if (done % checkpoint_every == 0 or done == steps) and ctx.is_main:
+        at_checkpoint = done % checkpoint_every == 0 or done == steps
+        if at_checkpoint:
+            means = {k: round(v / counted, 5) for k, v in sums.items()}
+            sums, counted = {}, 0
+        if at_checkpoint and ctx.is_main:
             elapsed = round(elapsed_before + time.time() - resumed_at, 1)
-            record: dict[str, Any] = {"step": done, "elapsed_s": elapsed, **logged}
+            record: dict[str, Any] = {"step": done, "elapsed_s": elapsed, **means}
             if validate_fn is not None:
                 model.eval()
-                value = float(validate_fn(done))
+                value, details = _validation(validate_fn, done)
                 record["validation"] = value
+                record.update(details)
                 if value < best["value"]:
                     best = {"step": done, "value": value}
                     if on_best is not None:

@@ -14,7 +14,6 @@ import time
 from dataclasses import asdict
 from pathlib import Path
 
-import numpy as np
 import torch
 
 from bimanualshift.data.episode import list_episodes, read_episode
@@ -29,6 +28,7 @@ from bimanualshift.sim.task import resolve_task_names, task_names
 from bimanualshift.training.augment import Se3Augmentation, transform_points, transform_quats, transform_voxels
 from bimanualshift.training.configs import PretrainConfig
 from bimanualshift.training.distributed import Distributed, init_distributed, loss_module
+from bimanualshift.training.keyframe_errors import validation_summary
 from bimanualshift.training.loop import run_training
 from bimanualshift.training.optim import lr_factor, make_optimizer
 from bimanualshift.utils.config_files import read_json_file
@@ -49,8 +49,8 @@ class PriorBatches:
         self.extra_poses = extra_poses  # where further poses (position, quaternion) start in the proprio
         chunks = action_chunks(samples, horizon)
         self.actions = {k: torch.as_tensor(v) for k, v in chunks.items()}
-        self.voxels = torch.as_tensor(samples.voxels)
-        # a point-cloud prior's observation replaces the voxels in its batches
+        # a point-cloud prior's observation replaces the voxels in its batches (its samples hold no voxels)
+        self.voxels = torch.as_tensor(samples.voxels) if samples.voxels is not None else None
         self.points = torch.as_tensor(samples.points) if samples.points is not None else None
         self.proprio = torch.as_tensor(samples.proprio)
         self.text = torch.as_tensor(default_text_encoder().encode(samples.instructions))
@@ -107,14 +107,17 @@ def global_batch_shard(batches: PriorBatches, index: torch.Tensor, generator: to
 
 def translation_accuracy(model: UnimanualPrior, batches: PriorBatches, tolerance_m: float = 0.03) -> float:
     """Fraction of keyframes whose predicted position is within ``tolerance_m`` of the expert's."""
-    hits = []
-    for start in range(0, len(batches), 16):
-        index = torch.arange(start, min(start + 16, len(batches)))
-        inputs, actions = batches.batch(index)
-        pred = model.predict(*inputs)
-        err = (pred.position - actions["position"][:, 0]).norm(dim=-1)
-        hits.extend((err < tolerance_m).tolist())
-    return float(np.mean(hits))
+    return -validation_summary(model, batches, tolerance_m)["value"]
+
+
+def episode_seed(path: Path) -> int:
+    return int(path.stem.rsplit("_", 1)[1])  # episode_<seed>.h5
+
+
+def first_demos(paths: list[Path], count: int) -> list[Path]:
+    """The ``count`` demos of lowest seed (all of them for 0), so a smaller data volume is a subset of a larger."""
+    ordered = sorted(paths, key=episode_seed)
+    return ordered[:count] if count else ordered
 
 
 def seeds_tried(paths: list[Path]) -> int:
@@ -146,7 +149,8 @@ def model_card(cfg: PretrainConfig, kind: str, step: int, accuracy: float, train
         f"--lr {opt.lr} --optimizer {opt.optimizer} --seed {opt.seed} --checkpoint-every {opt.checkpoint_every}"
         f"{overrides}"
         + (f" --schedule {opt.schedule} --warmup-steps {opt.warmup_steps}" if opt.schedule != "constant" else "")
-        + (f" --init-from {net.init_from}" if net.init_from else ""),
+        + (f" --init-from {net.init_from}" if net.init_from else "")
+        + (f" --episodes-per-task {ds.episodes_per_task}" if ds.episodes_per_task else ""),
     ])
     what = {"peract": "voxels in the arm's base frame -> translation heat-map, Euler rotation bins, gripper and "
                       "collision (PerAct-style)",
@@ -186,13 +190,13 @@ def pretrain(cfg: PretrainConfig) -> Path:
         out.mkdir(parents=True, exist_ok=True)
         atomic_write_json(out / "config.json", asdict(cfg))
     torch.manual_seed(opt.seed)
-    model = UnimanualPrior.from_pretrained(net.init_from) if net.init_from else build_prior(cfg)
+    model = UnimanualPrior.from_pretrained(net.init_from, net.model) if net.init_from else build_prior(cfg)
     if net.init_from and model.config.type != kind:
         raise ValueError(f"init_from={net.init_from!r} is a {model.config.type} prior, not {kind}: pass its type "
                          f"with --prior {model.config.type}")
     prior_cfg = model.config
     grid = VoxelGrid(tuple(prior_cfg.bounds), prior_cfg.voxel_size)
-    builder = ArmObservationBuilder(grid, points=model.cloud_points)
+    builder = ArmObservationBuilder(grid, points=model.cloud_points, voxels=model.observation == "voxels")
     tasks = resolve_task_names(ds.tasks)
     bimanual = [t for t in tasks if t in task_names(bimanual=True)]
     if bimanual:
@@ -202,7 +206,9 @@ def pretrain(cfg: PretrainConfig) -> Path:
         raise FileNotFoundError(f"no single-arm demos for {missing} under {ds.data}; run "
                                 f"`bimanualshift collect --task {' '.join(missing)} --episodes N --out {ds.data}` "
                                 "first, or pass --tasks with the tasks you have")
-    paths = [p for t in tasks for p in list_episodes(ds.data, t)]
+    if ds.episodes_per_task < 0:
+        raise ValueError(f"--episodes-per-task must be >= 0 (0 uses every demo), got {ds.episodes_per_task}")
+    paths = [p for t in tasks for p in first_demos(list_episodes(ds.data, t), ds.episodes_per_task)]
     for p in paths[:1]:
         if read_episode(p).arm_names != ["right"]:
             raise ValueError(f"{p} is not a single-arm episode: priors are pretrained on single-arm data only")
@@ -224,8 +230,8 @@ def pretrain(cfg: PretrainConfig) -> Path:
         index = torch.randint(len(train), (opt.batch_size,), generator=gen)
         return losses(*global_batch_shard(train, index, gen, augmentation, ctx), gen)
 
-    def validate(step: int) -> float:
-        return -translation_accuracy(model, val if val is not None else train)
+    def validate(step: int) -> dict[str, float]:
+        return validation_summary(model, val if val is not None else train)
 
     # a continued prior's training time and steps include the runs that built its starting point
     earlier = read_json_file(resolve_prior_path(net.init_from) / "config.json") if net.init_from else {}

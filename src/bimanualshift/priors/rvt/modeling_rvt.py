@@ -139,7 +139,10 @@ class RVTPrior(UnimanualPrior):
                  ) -> dict[str, torch.Tensor]:
         c = self.config
         half = torch.full((len(cloud),), c.zoom_half_extent)
-        heat, maps, pooled = self.fine(render_views(cloud.float(), centre, half, c.image_size), proprio, text)
+        # The fine stage sees its cube, not where the cube is: the gripper's position enters relative to the
+        # cube (in half sides), which is what places a target in free space (a lift, a pre-grasp) from the gripper.
+        local = torch.cat([(proprio[:, :3] - centre) / half[:, None], proprio[:, 3:]], -1)
+        heat, maps, pooled = self.fine(render_views(cloud.float(), centre, half, c.image_size), local, text)
         return {"heat": heat, "maps": maps, "pooled": pooled, "centre": centre, "half": half}
 
     def forward(self, cloud: torch.Tensor, proprio: torch.Tensor, text: torch.Tensor) -> dict[str, torch.Tensor]:
