@@ -5,7 +5,7 @@ import pytest
 
 from bimanualshift.configs import prior_model_config
 from bimanualshift.perception.arm_samples import ArmSamples, action_chunks
-from bimanualshift.priors.base import resolve_prior_path, shipped_priors
+from bimanualshift.priors.base import PRIORS, build_prior, resolve_prior_path, shipped_priors
 
 
 def test_shipped_priors_resolve_by_name_and_unknown_names_fail_clearly(tmp_path: Path) -> None:
@@ -42,3 +42,16 @@ def test_action_chunks_follow_each_arm_and_repeat_the_last_keyframe() -> None:
     np.testing.assert_array_equal(chunks["position"][3, :, 0], [9, 12, 12])  # never crosses into episode 0
     with pytest.raises(ValueError, match="horizon"):
         action_chunks(samples, 0)
+
+
+@pytest.mark.parametrize("kind", sorted(PRIORS))
+def test_every_prior_names_its_observation_and_takes_it(kind: str) -> None:
+    """``observation`` says what ``predict`` reads; a method of that name would hide it (the DP prior once did)."""
+    prior = build_prior(kind, "debug")
+    assert prior.observation in ("voxels", "points")
+    size = prior.config.voxel_size
+    voxels = np.zeros((4, size, size, size), np.float32)
+    cloud = np.random.default_rng(0).random((10, 6)).astype(np.float32)
+    scene = prior.observation_input(voxels, cloud if prior.observation == "points" else None)
+    expected = (prior.cloud_points, 6) if prior.observation == "points" else voxels.shape
+    assert scene.shape == expected and (prior.cloud_points > 0) == (prior.observation == "points")

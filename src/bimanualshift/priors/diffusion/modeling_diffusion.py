@@ -56,7 +56,7 @@ class DiffusionPrior(PointCloudChunkPrior):
         self.sample_scheduler = DDIMScheduler(**schedule)
 
     # -- networks ----------------------------------------------------------------------------------------------
-    def observation(self, voxels: torch.Tensor, proprio: torch.Tensor, text: torch.Tensor
+    def encode_observation(self, voxels: torch.Tensor, proprio: torch.Tensor, text: torch.Tensor
                     ) -> tuple[torch.Tensor, torch.Tensor]:
         """Observation tokens (B, cells^3 + 2, dim) for the denoiser and the visual features (B, point_dim)."""
         cells, feature = self.points(voxels.float())
@@ -74,7 +74,7 @@ class DiffusionPrior(PointCloudChunkPrior):
         """DDPM loss on the normalised action chunk: the error of the predicted clean chunk or noise."""
         clean = self.encode_actions(actions["position"], actions["quat"], actions["gripper_open"],
                                     actions["ignore_collisions"])
-        tokens, _ = self.observation(*inputs)
+        tokens, _ = self.encode_observation(*inputs)
         b = clean.shape[0]
         noise = torch.randn(clean.shape, generator=generator)
         t = torch.randint(0, self.config.train_timesteps, (b,), generator=generator)
@@ -88,7 +88,7 @@ class DiffusionPrior(PointCloudChunkPrior):
                ) -> tuple[torch.Tensor, torch.Tensor]:
         """DDIM sampling of the normalised chunk (B, H, action_dim) and the visual features."""
         c = self.config
-        tokens, feature = self.observation(voxels, proprio, text)
+        tokens, feature = self.encode_observation(voxels, proprio, text)
         generator = torch.Generator().manual_seed(c.sample_seed)
         x = torch.randn((voxels.shape[0], c.horizon, c.action_dim), generator=generator)
         scheduler = self.sample_scheduler
