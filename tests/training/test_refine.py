@@ -19,7 +19,7 @@ from bimanualshift.methods.bimanualshift import MEMORY_FILE, load_bimanualshift
 from bimanualshift.sim.env import ManipulationEnv
 from bimanualshift.training.checkpoint import latest_checkpoint
 from bimanualshift.training.configs import RefineConfig, TrainConfig
-from bimanualshift.training.refine import expert_actions, refine, run_policy, strays
+from bimanualshift.training.refine import expert_actions, refine, repeats, run_policy, strays
 from bimanualshift.training.residual_trainer import train_residual
 from bimanualshift.utils.config_files import config_from_flat
 
@@ -70,6 +70,10 @@ def test_corrector_targets_are_expert_minus_frozen_prior(trained: Path) -> None:
         assert abs(abs(float(np.dot(recomposed, quat))) - 1.0) < 1e-5
         torch.testing.assert_close(correction.inputs[i], decision.inputs)
         np.testing.assert_allclose(trajectory[0, i, :3], pos, atol=1e-5)  # the expert's action was executed
+    # the coordination targets: the corrector's gripper, and a hold where it repeats the arm's previous action
+    assert correction.gripper == [float(plan[k][i][7] > 0.5) for k in range(len(plan)) for i in range(2)]
+    assert correction.hold[:2] == [0.0, 0.0]  # an episode's first keyframe is never a hold
+    assert correction.hold[2:] == [float(repeats(plan[1][i], plan[0][i])) for i in range(2)]
 
 
 def test_refine_corrects_grows_memory_resumes_and_keeps_prior_frozen(trained: Path, tmp_path: Path) -> None:

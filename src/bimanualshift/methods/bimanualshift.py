@@ -44,9 +44,11 @@ class BimanualShift:
         self.retrieval: Retrieval | None = None
         self._retrieved = False
         self._key: np.ndarray | None = None
+        self._last_action: dict[str, np.ndarray] = {}  # per arm, what a hold repeats
 
     def reset(self) -> None:
         self.retrieval, self._retrieved, self._key = None, False, None
+        self._last_action = {}
 
     def _retrieve(self, steps: dict, text: torch.Tensor, arms: list[str]) -> None:
         """Once per episode, on its first observation: the most similar stored execution, if confident."""
@@ -76,12 +78,28 @@ class BimanualShift:
                 torch.tensor([obs.keyframe_index]), reference, goal,
             )
             out = self.residual(inputs)
-            position = s.prior.position[0].numpy() + out["translation"][0].numpy()
-            quat = compose_rotation(s.prior.quat[0].numpy(), out["rotation"][0].numpy())
-            action = world_action(s.frame, position, quat, float(s.prior.gripper_open[0]),
-                                  float(s.prior.ignore_collisions[0]))
-            decisions.append(ArmDecision(arm, s, inputs[0], action))
+            action, held = self.final_action(arm, s, out)
+            self._last_action[arm] = action
+            decisions.append(ArmDecision(arm, s, inputs[0], action, held))
         return decisions
+
+    def final_action(self, arm: str, step: ArmStep, out: dict[str, torch.Tensor]) -> tuple[np.ndarray, bool]:
+        """The world-frame action of one arm from the prior's and the residual's outputs, and whether the arm holds.
+
+        Eq. 4 moves the prior's position and orientation; a gripper residual moves its open/close logit; a hold
+        repeats the arm's last action (at an episode's first keyframe, its current pose and gripper)."""
+        prior = step.prior
+        if "hold_logit" in out and float(out["hold_logit"][0]) > 0:
+            last = self._last_action.get(arm)
+            if last is None:
+                own = step.proprio
+                last = world_action(step.frame, own[:3], own[3:7], float(own[7]), float(prior.ignore_collisions[0]))
+            return last.copy(), True
+        position = prior.position[0].numpy() + out["translation"][0].numpy()
+        quat = compose_rotation(prior.quat[0].numpy(), out["rotation"][0].numpy())
+        gripper = (float(torch.sigmoid(out["gripper_logit"][0])) if "gripper_logit" in out
+                   else float(prior.gripper_open[0]))
+        return world_action(step.frame, position, quat, gripper, float(prior.ignore_collisions[0])), False
 
     def act(self, obs: KeyframeObservation) -> np.ndarray:
         return np.stack([d.action for d in self.decide(obs)])
@@ -97,6 +115,7 @@ class ArmDecision:
     step: ArmStep  # the arm's frame, proprioception and the frozen prior's output
     inputs: torch.Tensor  # the Manager's input row
     action: np.ndarray  # (9,) the world-frame action sent to the env
+    held: bool = False  # the residual's hold kept this arm where its last action put it
 
 
 def save_residual(directory: str | Path, residual: ResidualPolicy, extra: dict[str, Any],

@@ -41,7 +41,8 @@ class FrozenPriorStep:
         segmented = use_projection or locate_goal
         projection = ArmProjection(make_segmenter(segmenter, **(segmenter_options or {}))) if segmented else None
         self.builder = ArmObservationBuilder(VoxelGrid(tuple(cfg.bounds), cfg.voxel_size), projection,
-                                             mask_voxels=use_projection, points=prior.cloud_points)
+                                             mask_voxels=use_projection, points=prior.cloud_points,
+                                             voxels=prior.observation == "voxels")
 
     def text(self, instruction: str) -> torch.Tensor:
         return torch.as_tensor(self.text_encoder.encode([instruction]))

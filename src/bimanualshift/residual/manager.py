@@ -33,6 +33,16 @@ class ResidualConfig:
     # The residual's translation and rotation are scaled by factors chosen on validation demos after training
     # (``output_scale``; 1 while training): where the prior is already precise, the residual is turned down.
     output_gate: bool = False
+    # Coordination outputs beyond the paper's Eq. 4 (both False: the paper-literal residual, translation and
+    # rotation only). ``gripper_residual``: a logit added to the prior's open/close logit. ``hold``: a logit that,
+    # when positive, keeps the arm where its last action put it while the other arm acts.
+    gripper_residual: bool = False
+    hold: bool = False
+
+    @property
+    def extra_outputs(self) -> int:
+        """G's outputs beyond the 6 of Eq. 4 (translation, rotation)."""
+        return int(self.gripper_residual) + int(self.hold)
 
     def layout(self) -> dict[str, slice]:
         """Where each part of ``manager_inputs``'s row lies."""
@@ -46,6 +56,8 @@ class ResidualConfig:
         return out
 
 
+HOLD_INIT_LOGIT = -4.0
+GRIPPER_PROB_FLOOR = 1e-4  # the prior's open probability is clamped here before its logit is taken
 INPUT_STD_FLOOR = 1e-2  # below this spread a column is treated as constant (e.g. one instruction's embedding)
 
 
@@ -95,9 +107,12 @@ class ResidualPolicy(nn.Module):
             self.register_buffer("input_std", torch.ones(self.manager.in_dim))
         if config.output_gate:  # (translation, rotation) factors; see choose_output_scale
             self.register_buffer("output_scale", torch.ones(2))
-        self.g = nn.Linear(skill_dim, 6)
-        nn.init.zeros_(self.g.weight)  # start as the identity: the prior's action unchanged
+        self.g = nn.Linear(skill_dim, 6 + config.extra_outputs)
+        nn.init.zeros_(self.g.weight)  # start as the identity: the prior's action unchanged ...
         nn.init.zeros_(self.g.bias)
+        if config.hold:  # ... and no arm held (a hold logit of -4 is a 2 % hold probability)
+            with torch.no_grad():
+                self.g.bias[-1] = HOLD_INIT_LOGIT
 
     @torch.no_grad()
     def fit_normalisation(self, inputs: torch.Tensor) -> None:
@@ -109,15 +124,28 @@ class ResidualPolicy(nn.Module):
         self.input_std.copy_(inputs.std(0).clamp_min(INPUT_STD_FLOOR))
 
     def forward(self, inputs: torch.Tensor) -> dict[str, torch.Tensor]:
-        if self.config.normalise_inputs:
+        """``translation`` (N, 3) and ``rotation`` (N, 3) residuals (Eq. 4); with ``gripper_residual`` the final
+        open/close logit ``gripper_logit`` (N,) = the prior's logit + the residual's; with ``hold`` the hold logit
+        ``hold_logit`` (N,); the skill weights and v."""
+        c = self.config
+        prior_gripper = inputs[:, c.layout()["base_action"].start + 7]  # the prior's open probability, raw
+        if c.normalise_inputs:
             inputs = (inputs - self.input_mean) / self.input_std
         weights, compensation = self.manager(inputs)
-        v = self.basis.combine(weights, compensation) if self.config.structured else compensation
+        v = self.basis.combine(weights, compensation) if c.structured else compensation
         residual = self.g(v)
-        translation, rotation = residual[:, :3], residual[:, 3:]
-        if self.config.output_gate:
+        translation, rotation = residual[:, :3], residual[:, 3:6]
+        if c.output_gate:
             translation, rotation = translation * self.output_scale[0], rotation * self.output_scale[1]
-        return {"translation": translation, "rotation": rotation, "weights": weights, "v": v}
+        out = {"translation": translation, "rotation": rotation, "weights": weights, "v": v}
+        column = 6
+        if c.gripper_residual:
+            p = prior_gripper.clamp(GRIPPER_PROB_FLOOR, 1 - GRIPPER_PROB_FLOOR)
+            out["gripper_logit"] = torch.log(p) - torch.log1p(-p) + residual[:, column]
+            column += 1
+        if c.hold:
+            out["hold_logit"] = residual[:, column]
+        return out
 
 
 def manager_inputs(features: torch.Tensor, proprio: torch.Tensor, other_proprio: torch.Tensor,

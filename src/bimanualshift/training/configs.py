@@ -101,6 +101,9 @@ class ResidualModelConfig:
     # After training, scale the residual's translation and rotation by factors chosen on the validation demos
     # (residual/output_gate.py): the residual is turned down where the prior alone places keyframes better.
     output_gate: bool = True
+    # The paper-literal residual of Eq. 4: translation and rotation only. Off (the default): the residual also
+    # moves the prior's gripper logit and may hold an arm while the other acts (docs/residual.md).
+    paper_literal: bool = False
 
     def residual_config(self, feature_dim: int, text_dim: int) -> ResidualConfig:
         """The network's config: the one place these switches become the residual's widths and flags
@@ -114,7 +117,8 @@ class ResidualModelConfig:
                               goal_dim=GOAL_GEOMETRY_DIM if self.goal_geometry else 0,
                               phase_dim=self.phase_slots * len(ARM_ORDER), normalise_inputs=self.normalise_inputs,
                               read_prior_features=self.prior_features, geometric_skip=self.geometric_skip,
-                              output_gate=self.output_gate)
+                              output_gate=self.output_gate, gripper_residual=not self.paper_literal,
+                              hold=not self.paper_literal)
 
 
 @dataclass
@@ -129,6 +133,8 @@ class TrainConfig:
     # and whose memory bank entries join this task's, so earlier tasks stay retrievable.
     init_from: str = ""
     beta: float = 1.0  # weight of the rotation term in L_BC (Eq. 12)
+    gripper_weight: float = 0.01  # weight of the gripper logit's cross-entropy in L_BC (not paper-literal)
+    hold_weight: float = 0.01  # weight of the hold logit's cross-entropy in L_BC (not paper-literal)
     dataset: ResidualDataConfig = field(default_factory=ResidualDataConfig)
     model: ResidualModelConfig = field(default_factory=ResidualModelConfig)
     optim: OptimConfig = field(default_factory=lambda: OptimConfig(steps=RESIDUAL_STEPS, lr=5e-4))
@@ -148,5 +154,7 @@ class RefineConfig:
     batch_size: int = 4
     lr: float = 5e-4
     beta: float = 1.0
+    gripper_weight: float = 0.01  # as in `train`: the gripper's and the hold's cross-entropy weights
+    hold_weight: float = 0.01
     checkpoint_every: int = 100
     seed: int = 0

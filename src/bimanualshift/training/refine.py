@@ -41,7 +41,15 @@ from bimanualshift.sim.env import ManipulationEnv
 from bimanualshift.training.configs import RefineConfig, TrainConfig
 from bimanualshift.training.loop import run_training
 from bimanualshift.training.optim import make_lamb
-from bimanualshift.training.residual_trainer import ResidualData, bc_loss, residual_data
+from bimanualshift.training.residual_trainer import (
+    HOLD_TOLERANCE_M,
+    HOLD_TOLERANCE_RAD,
+    TARGET_FIELDS,
+    LossWeights,
+    ResidualData,
+    bc_loss,
+    residual_data,
+)
 from bimanualshift.utils.config_files import config_from_dict, load_safetensors, read_json_file
 from bimanualshift.utils.io import atomic_write_json, atomic_writer
 
@@ -51,6 +59,8 @@ class Correction:
     inputs: list[torch.Tensor]
     translation: list[np.ndarray]
     rotation: list[np.ndarray]
+    gripper: list[float]  # the corrector's gripper (1 open)
+    hold: list[float]  # 1 where the corrector repeats the arm's previous action (it waits)
 
 
 def arm_frame_action(decision_frame: Any, row: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -64,6 +74,13 @@ def strays(policy_row: np.ndarray, expert_row: np.ndarray, tolerance_m: float, t
     angle = np.degrees(np.linalg.norm(rotation_difference(expert_row[3:7], policy_row[3:7]))) > tolerance_deg
     gripper = (policy_row[7] > 0.5) != (expert_row[7] > 0.5)
     return bool(position or angle or gripper)
+
+
+def repeats(action: np.ndarray, previous: np.ndarray) -> bool:
+    """Whether a world-frame action repeats the arm's previous one (a hold; the tolerances of ``hold_labels``)."""
+    near = np.linalg.norm(action[:3] - previous[:3]) < HOLD_TOLERANCE_M
+    turned = np.linalg.norm(rotation_difference(action[3:7], previous[3:7]))
+    return bool(near and turned < HOLD_TOLERANCE_RAD and (action[7] > 0.5) == (previous[7] > 0.5))
 
 
 def _trajectory_row(decisions: list, executed: np.ndarray) -> np.ndarray:
@@ -80,7 +97,7 @@ def run_policy(env: ManipulationEnv, policy: BimanualShift, seed: int, max_keyfr
                ) -> tuple[bool, np.ndarray, np.ndarray | None, Correction]:
     """One episode; with ``corrector`` (the expert's world-frame actions per keyframe) straying arms are
     overridden and recorded. Returns (success, executed arm-frame trajectory, memory key, corrections)."""
-    trajectory, correction = [], Correction([], [], [])
+    trajectory, correction = [], Correction([], [], [], [], [])
 
     def act(k: int, obs: KeyframeObservation) -> np.ndarray:
         decisions = policy.decide(obs)
@@ -96,6 +113,8 @@ def run_policy(env: ManipulationEnv, policy: BimanualShift, seed: int, max_keyfr
                 correction.inputs.append(d.inputs)
                 correction.translation.append(pos - base.position[0].numpy())
                 correction.rotation.append(rotation_difference(quat, base.quat[0].numpy()))
+                correction.gripper.append(float(expert[7] > 0.5))
+                correction.hold.append(float(k > 0 and repeats(expert, corrector[k - 1][i])))
         trajectory.append(_trajectory_row(decisions, executed))
         return executed
 
@@ -115,7 +134,9 @@ def _save_scene(path: Path, record: dict, correction: Correction, trajectory: np
                 key: np.ndarray | None) -> None:
     tensors = {"inputs": torch.stack(correction.inputs) if correction.inputs else torch.zeros(0),
                "translation": torch.as_tensor(np.asarray(correction.translation, np.float32)),
-               "rotation": torch.as_tensor(np.asarray(correction.rotation, np.float32))}
+               "rotation": torch.as_tensor(np.asarray(correction.rotation, np.float32)),
+               "gripper": torch.as_tensor(np.asarray(correction.gripper, np.float32)),
+               "hold": torch.as_tensor(np.asarray(correction.hold, np.float32))}
     if trajectory is not None and key is not None:
         tensors["trajectory"] = torch.as_tensor(trajectory)
         tensors["key"] = torch.as_tensor(np.asarray(key, np.float32))
@@ -159,12 +180,14 @@ def load_scenes(paths: list[Path]) -> tuple[list[dict], ResidualData | None, lis
         tensors = load_safetensors(path)
         records.append(record)
         if record["corrections"]:
-            parts.append((tensors["inputs"], tensors["translation"], tensors["rotation"]))
+            # scenes saved before the coordination targets existed carry none (None: refused by bc_loss if needed)
+            parts.append({f: tensors.get(f) for f in ("inputs", "translation", "rotation", *TARGET_FIELDS)})
         if "trajectory" in names:
             successes.append((record, tensors["key"].numpy(), tensors["trajectory"].numpy()))
     data = None
     if parts:
-        data = ResidualData(*(torch.cat([p[i] for p in parts]) for i in range(3)))
+        data = ResidualData(**{f: (None if any(p[f] is None for p in parts) else torch.cat([p[f] for p in parts]))
+                               for f in parts[0]})
     return records, data, successes
 
 
@@ -208,21 +231,22 @@ def refine(cfg: RefineConfig, text_encoder: TextEncoder | None = None) -> Path:
     optimizer = make_lamb(residual.parameters(), lr=cfg.lr)
     lambda_corr = cfg.lambda_corr if corrections is not None else 0.0
 
+    weights = LossWeights(cfg.beta, cfg.gripper_weight, cfg.hold_weight)
+
     def step_fn(step: int, gen: torch.Generator) -> dict[str, torch.Tensor]:
-        index = torch.randint(len(train.inputs), (cfg.batch_size,), generator=gen)
-        losses = bc_loss(residual(train.inputs[index]), train.translation[index], train.rotation[index], cfg.beta)
+        batch = train.rows(torch.randint(len(train.inputs), (cfg.batch_size,), generator=gen))
+        losses = bc_loss(residual(batch.inputs), batch, weights)
         if corrections is None:
             return losses
-        index = torch.randint(len(corrections.inputs), (cfg.batch_size,), generator=gen)
-        out = residual(corrections.inputs[index])
-        # Eq. 11: || G(v) - r* ||^2 over both components of the residual.
-        corr = (((out["translation"] - corrections.translation[index]) ** 2).sum(-1)
-                + cfg.beta * ((out["rotation"] - corrections.rotation[index]) ** 2).sum(-1)).mean()
+        fixes = corrections.rows(torch.randint(len(corrections.inputs), (cfg.batch_size,), generator=gen))
+        # Eq. 11: || G(v) - r* ||^2 over both components of the residual (and, for the coordination outputs, the
+        # cross-entropy against the corrector's gripper and hold), the same form as L_BC.
+        corr = bc_loss(residual(fixes.inputs), fixes, weights)["total"]
         return {**losses, "correction": corr, "total": losses["total"] + lambda_corr * corr}
 
     def validate(step: int) -> float:
         with torch.no_grad():
-            return float(bc_loss(residual(val.inputs), val.translation, val.rotation, cfg.beta)["total"])
+            return float(bc_loss(residual(val.inputs), val, weights)["total"])
 
     refine_meta = {**{k: v for k, v in meta.items() if k not in ("type", "residual")},
                    "refined_from": str(checkpoint), "refine_config": asdict(cfg)}

@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 import torch
+import torch.nn.functional as F
 
 from bimanualshift.data.episode import list_episodes
 from bimanualshift.encoders.text import TextEncoder, default_text_encoder, make_text_encoder
@@ -42,6 +43,38 @@ class ResidualData:
     translation: torch.Tensor  # (N, 3) target residual: expert - prior, arm frame
     rotation: torch.Tensor  # (N, 3) axis-angle r with exp(r) * R_prior = R_expert
     memory: MemoryBank | None = None  # the bank the references came from (built here with ``build_memory``)
+    gripper: torch.Tensor | None = None  # (N,) the expert's gripper: 1 open, 0 closed
+    hold: torch.Tensor | None = None  # (N,) 1 where the expert keeps this arm's previous action (``hold_labels``)
+
+    def __len__(self) -> int:
+        return len(self.inputs)
+
+    def rows(self, index: torch.Tensor) -> ResidualData:
+        """The samples at ``index`` (a batch)."""
+        pick = {f: (None if getattr(self, f) is None else getattr(self, f)[index]) for f in TARGET_FIELDS}
+        return ResidualData(self.inputs[index], self.translation[index], self.rotation[index], **pick)
+
+
+TARGET_FIELDS = ("gripper", "hold")
+# An arm holds at a keyframe when its target repeats its previous keyframe's: the same gripper state, within
+# these distances (the experts repeat an idle arm's action exactly; a moving arm's keyframes are centimetres apart).
+HOLD_TOLERANCE_M = 0.005
+HOLD_TOLERANCE_RAD = 0.05
+
+
+def hold_labels(samples: ArmSamples) -> np.ndarray:
+    """(N,) float: 1 where a sample's action repeats the same arm's action at the previous keyframe of its
+    episode (the arm waits while the other acts), else 0; an episode's first keyframe is never a hold."""
+    where = {(int(e), a, int(k)): i for i, (e, a, k) in enumerate(zip(samples.episode, samples.arm, samples.keyframe))}
+    out = np.zeros(len(samples), np.float32)
+    for i, (e, arm, k) in enumerate(zip(samples.episode, samples.arm, samples.keyframe)):
+        j = where.get((int(e), arm, int(k) - 1))
+        if j is None:
+            continue
+        near = np.linalg.norm(samples.action_pos[i] - samples.action_pos[j]) < HOLD_TOLERANCE_M
+        turned = np.linalg.norm(rotation_difference(samples.action_quat[i], samples.action_quat[j]))
+        out[i] = float(near and turned < HOLD_TOLERANCE_RAD and samples.gripper_open[i] == samples.gripper_open[j])
+    return out
 
 
 def residual_data(config: ResidualConfig, paths: list[Path], prior_step: FrozenPriorStep, text_encoder: TextEncoder,
@@ -67,6 +100,8 @@ def residual_data(config: ResidualConfig, paths: list[Path], prior_step: FrozenP
     text = torch.as_tensor(text_encoder.encode(samples.instructions))  # the residual's (Manager, memory key)
     prior_text = torch.as_tensor(prior_step.text_encoder.encode(samples.instructions))  # the prior's own
     generator = torch.Generator().manual_seed(seed)
+    gripper = torch.as_tensor(samples.gripper_open, dtype=torch.float32)
+    hold = torch.as_tensor(hold_labels(samples))
     parts = []
     for copy in range(1 + augment_copies):
         clouds = prior_step.prior.observation == "points"
@@ -108,9 +143,10 @@ def residual_data(config: ResidualConfig, paths: list[Path], prior_step: FrozenP
         translation = torch.as_tensor(samples.action_pos + offsets) - base_t[:, :3]
         rotation = torch.as_tensor(np.stack([rotation_difference(t, b) for t, b in
                                              zip(samples.action_quat, base_t[:, 3:7].numpy())]), dtype=torch.float32)
-        parts.append(ResidualData(inputs, translation, rotation))
-    return ResidualData(*(torch.cat([getattr(p, f) for p in parts]) for f in ("inputs", "translation", "rotation")),
-                        memory=memory)
+        parts.append(ResidualData(inputs, translation, rotation, gripper=gripper, hold=hold))
+    fields = ("inputs", "translation", "rotation", *TARGET_FIELDS)
+    merged = {f: torch.cat([getattr(p, f) for p in parts]) for f in fields}
+    return ResidualData(**merged, memory=memory)
 
 
 def episode_memory(samples: ArmSamples, features: torch.Tensor, text: torch.Tensor, threshold: float,
@@ -157,12 +193,32 @@ def retrieved_references(samples: ArmSamples, first_features: torch.Tensor, text
     return torch.as_tensor(out)
 
 
-def bc_loss(out: dict[str, torch.Tensor], translation: torch.Tensor, rotation: torch.Tensor, beta: float
-            ) -> dict[str, torch.Tensor]:
-    """Eq. 12 on the final action: a = prior + G(v), so the error of a equals the residual's error."""
-    trans = ((out["translation"] - translation) ** 2).sum(-1).mean()
-    rot = ((out["rotation"] - rotation) ** 2).sum(-1).mean()
-    return {"translation": trans, "rotation": rot, "total": trans + beta * rot}
+@dataclass(frozen=True)
+class LossWeights:
+    """Weights of L_BC's terms (Eq. 12 and its coordination extension, docs/residual.md)."""
+
+    beta: float = 1.0  # rotation (rad^2) against translation (m^2)
+    # The gripper's and the hold's binary cross-entropies: their scale (~0.1-0.7) dwarfs squared metres (a 2 cm
+    # error is 4e-4), so they are turned down to keep the shared Manager's gradient mostly on the pose.
+    gripper: float = 0.01
+    hold: float = 0.01
+
+
+def bc_loss(out: dict[str, torch.Tensor], data: ResidualData, weights: LossWeights) -> dict[str, torch.Tensor]:
+    """Eq. 12 on the final action: a = prior + G(v), so the error of a equals the residual's error; with the
+    coordination outputs, the binary cross-entropy of the final gripper logit and of the hold logit too."""
+    trans = ((out["translation"] - data.translation) ** 2).sum(-1).mean()
+    rot = ((out["rotation"] - data.rotation) ** 2).sum(-1).mean()
+    losses = {"translation": trans, "rotation": rot}
+    total = trans + weights.beta * rot
+    for name, logit, target, weight in (("gripper", "gripper_logit", data.gripper, weights.gripper),
+                                        ("hold", "hold_logit", data.hold, weights.hold)):
+        if logit in out:
+            if target is None:
+                raise ValueError(f"this residual predicts a {name} logit but the data has no {name} targets")
+            losses[name] = F.binary_cross_entropy_with_logits(out[logit], target)
+            total = total + weight * losses[name]
+    return {**losses, "total": total}
 
 
 def translation_report(residual: ResidualPolicy, data: ResidualData) -> dict[str, float]:
@@ -243,13 +299,15 @@ def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Pat
                        "task": cfg.dataset.task, "demos": len(paths), "train_config": asdict(cfg),
                        "text_encoder": cfg.model.text_encoder}
 
+    weights = LossWeights(cfg.beta, cfg.gripper_weight, cfg.hold_weight)
+
     def step_fn(step: int, gen: torch.Generator) -> dict[str, torch.Tensor]:
-        index = torch.randint(len(train.inputs), (cfg.optim.batch_size,), generator=gen)
-        return bc_loss(residual(train.inputs[index]), train.translation[index], train.rotation[index], cfg.beta)
+        batch = train.rows(torch.randint(len(train.inputs), (cfg.optim.batch_size,), generator=gen))
+        return bc_loss(residual(batch.inputs), batch, weights)
 
     def validate(step: int) -> float:
         with torch.no_grad():
-            return float(bc_loss(residual(val.inputs), val.translation, val.rotation, cfg.beta)["total"])
+            return float(bc_loss(residual(val.inputs), val, weights)["total"])
 
     def on_best(step: int, value: float, elapsed_s: float) -> None:
         save_residual(out / "best", residual, {**checkpoint_meta, "trained_steps": step, "validation_loss": value},
