@@ -26,7 +26,8 @@ class PerActDropoutConfig(PerActConfig):
 class PerActDropoutPrior(PerActPrior):
     config_class = PerActDropoutConfig
 
-    def forward(self, voxels: torch.Tensor, proprio: torch.Tensor, text: torch.Tensor) -> dict[str, torch.Tensor]:
+    def forward(self, voxels: torch.Tensor, proprio: torch.Tensor, text: torch.Tensor, keep_maps: bool = False
+                ) -> dict[str, torch.Tensor]:
         if self.training:
             proprio = torch.nn.functional.dropout(proprio, self.config.proprio_dropout)
-        return super().forward(voxels, proprio, text)
+        return super().forward(voxels, proprio, text, keep_maps)

@@ -76,3 +76,22 @@ def test_the_subvoxel_offset_learns_where_inside_its_voxel_the_target_lies() -> 
     error = (out.position - target).norm(dim=-1)
     centre_error = (centre - target).norm(dim=-1)
     assert float(error.max()) < 0.3 * float(centre_error.min())  # ... and the right place inside it
+
+
+@pytest.mark.parametrize("kind", ["peract", "diffusion", "act", "rvt"])
+def test_proposal_features_are_read_at_the_prior_own_proposal(kind: str) -> None:
+    """The Manager's arm-specific visual input: the prior's features where it points (and around it)."""
+    model = build_prior(kind, "debug").freeze()
+    inputs = _inputs(model)
+    with torch.no_grad():
+        out = model.predict(*inputs)
+        proposal = model.proposal_features(*inputs, out)
+        at_point = model.local_features(*inputs, out.position)
+    assert proposal.shape == (2, model.proposal_feature_dim) and model.proposal_feature_dim > 0
+    if kind == "peract":  # the maps at the peak, then their mean one voxel around it
+        torch.testing.assert_close(proposal[:, : model.local_feature_dim], at_point)
+    elif kind == "rvt":  # the fine stage's per-view maps at the final position, then the coarse stage's there
+        torch.testing.assert_close(proposal[:, model.local_feature_dim:], at_point)
+    else:  # no maps kept while predicting: the local features at the proposal, one more pass
+        assert out.proposal_features is None
+        torch.testing.assert_close(proposal, at_point)

@@ -118,3 +118,20 @@ def test_manager_without_prior_features_ignores_them_and_the_skip_reads_the_geom
     _, h = manager(x)
     _, h_moved = manager(moved)
     assert not torch.allclose(h, h_moved)
+
+
+def test_the_prior_proposal_features_take_their_own_columns_and_a_wrong_width_is_named() -> None:
+    from bimanualshift.residual.manager import manager_input_rows
+
+    cfg = ResidualConfig(feature_dim=5, text_dim=8, proposal_dim=4)
+    g = torch.Generator().manual_seed(0)
+    parts = [torch.rand(2, w, generator=g) for w in (5, 9, 8, 8, 8)]
+    proposal = torch.rand(2, 4, generator=g)
+    rows = manager_input_rows(cfg, *parts, torch.tensor([0, 1]), torch.tensor([0, 3]), proposal=proposal)
+    assert rows.shape == (2, cfg.layout()["proposal"].stop)
+    torch.testing.assert_close(rows[:, cfg.layout()["proposal"]], proposal)
+    assert ResidualPolicy(cfg, SkillBasis.from_verbs(FakeEncoder()))(rows)["translation"].shape == (2, 3)
+    with pytest.raises(ValueError, match="4-wide proposal"):
+        manager_input_rows(cfg, *parts, torch.tensor([0, 1]), torch.tensor([0, 3]))
+    with pytest.raises(ValueError, match="got 3 columns"):
+        manager_input_rows(cfg, *parts, torch.tensor([0, 1]), torch.tensor([0, 3]), proposal=proposal[:, :3])

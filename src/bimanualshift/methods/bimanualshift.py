@@ -75,7 +75,7 @@ class BimanualShift:
             inputs = manager_input_rows(
                 self.residual.config, s.prior.features, torch.as_tensor(s.proprio)[None],
                 torch.as_tensor(s.other_proprio)[None], text, s.prior.base_action(), torch.tensor([i]),
-                torch.tensor([obs.keyframe_index]), reference, goal,
+                torch.tensor([obs.keyframe_index]), reference, goal, s.prior.proposal_features,
             )
             out = self.residual(inputs)
             action, held = self.final_action(arm, s, out)
@@ -142,5 +142,6 @@ def load_bimanualshift(directory: str | Path, text_encoder: TextEncoder | None =
     prior_step = FrozenPriorStep(prior, text_encoder, use_projection=cfg.get("use_projection", True),
                              locate_goal=rcfg.goal_dim > 0,
                              segmenter=cfg.get("segmenter", "simulator"),
-                             segmenter_options=cfg.get("segmenter_options"))
+                             segmenter_options=cfg.get("segmenter_options"),
+                             proposal_features=rcfg.proposal_dim > 0)
     return BimanualShift(prior_step, residual, memory, residual_encoder)

@@ -32,9 +32,12 @@ class ArmStep:
 class FrozenPriorStep:
     def __init__(self, prior: UnimanualPrior, text_encoder: TextEncoder, use_projection: bool = True,
                  segmenter: str = "simulator",
-                 segmenter_options: dict[str, str] | None = None, locate_goal: bool = False) -> None:
+                 segmenter_options: dict[str, str] | None = None, locate_goal: bool = False,
+                 proposal_features: bool = False) -> None:
         self.prior = prior.freeze()
         self.text_encoder = text_encoder
+        # fill every output's ``proposal_features`` (priors that do not while predicting take one more pass)
+        self.proposal_features = proposal_features
         cfg = prior.config
         # The arm-conditioned projection is this step's observation path; the ablation turns its masking off, and
         # keeps the segmentation only where the goal's location is wanted (``locate_goal``).
@@ -55,7 +58,10 @@ class FrozenPriorStep:
         for arm in obs.scene.arm_names:
             proprio = self.prior.arm_proprio(per_arm[arm].proprio, obs.keyframe_index)
             scene = self.prior.observation_input(per_arm[arm].voxels, per_arm[arm].points)
-            out = self.prior.predict(torch.as_tensor(scene)[None], torch.as_tensor(proprio)[None], text)
+            inputs = (torch.as_tensor(scene)[None], torch.as_tensor(proprio)[None], text)
+            out = self.prior.predict(*inputs)
+            if self.proposal_features:
+                out.proposal_features = self.prior.proposal_features(*inputs, out)
             steps[arm] = ArmStep(frames[arm], proprio, per_arm[arm].other_proprio, out, per_arm[arm].goal)
         return steps
 

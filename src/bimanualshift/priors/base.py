@@ -51,6 +51,10 @@ class PriorOutput:
     logits: dict[str, torch.Tensor] | None = None
     # (B, 3) a coarse-to-fine prior's first-stage position (RVT-2-style), to report what its second stage adds
     coarse_position: torch.Tensor | None = None
+    # (B, proposal_feature_dim) what the prior computed at and around its own proposed position: the residual
+    # Manager's arm-specific visual input (Eq. 6). Filled by priors that have the maps at hand when predicting
+    # (PerAct-style, RVT-style); ``UnimanualPrior.proposal_features`` fills it for the others.
+    proposal_features: torch.Tensor | None = None
 
     def base_action(self) -> torch.Tensor:
         """(B, 8) position, quaternion and gripper: the prior's own action as the Manager sees it."""
@@ -115,6 +119,23 @@ class UnimanualPrior(nn.Module):
         """(B, local_feature_dim) the prior's features at arm-frame points (B, 3): what it computed about that
         place in the scene (e.g. where its own action or the goal is), for the residual's Manager."""
         raise NotImplementedError(f"{type(self).__name__} exposes no local features (local_feature_dim is 0)")
+
+    @property
+    def proposal_feature_dim(self) -> int:
+        """Width of ``proposal_features``: by default the local features at the proposed point (0: none)."""
+        return self.local_feature_dim
+
+    @torch.no_grad()
+    def proposal_features(self, voxels: torch.Tensor, proprio: torch.Tensor, text: torch.Tensor,
+                          out: PriorOutput) -> torch.Tensor:
+        """(B, proposal_feature_dim) the prior's features at and around ``out``'s proposed position: those
+        ``predict`` filled in, else ``local_features`` read at the proposal (one more pass)."""
+        if out.proposal_features is not None:
+            return out.proposal_features
+        if not self.proposal_feature_dim:
+            raise ValueError(f"{type(self).__name__} exposes no local features, so the Manager cannot read its "
+                             "proposal's features (train the residual with --proposal-features false)")
+        return self.local_features(voxels, proprio, text, out.position)
 
     def compute_loss(self, inputs: tuple[torch.Tensor, ...], actions: dict[str, torch.Tensor],
                      generator: torch.Generator | None = None) -> dict[str, torch.Tensor]:

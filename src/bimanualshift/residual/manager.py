@@ -38,6 +38,9 @@ class ResidualConfig:
     # when positive, keeps the arm where its last action put it while the other arm acts.
     gripper_residual: bool = False
     hold: bool = False
+    # Width of the frozen prior's features at and around its own proposal (``PriorOutput.proposal_features``), the
+    # arm-specific visual input of Eq. 6; 0 = not read (checkpoints from before it).
+    proposal_dim: int = 0
 
     @property
     def extra_outputs(self) -> int:
@@ -48,7 +51,8 @@ class ResidualConfig:
         """Where each part of ``manager_inputs``'s row lies."""
         widths = {"features": self.feature_dim, "proprio": self.proprio_dim, "other_proprio": self.other_proprio_dim,
                   "text": self.text_dim, "base_action": self.base_action_dim, "arm": self.num_arms,
-                  "reference": self.reference_dim, "goal": self.goal_dim, "phase": self.phase_dim}
+                  "reference": self.reference_dim, "goal": self.goal_dim, "phase": self.phase_dim,
+                  "proposal": self.proposal_dim}
         out, start = {}, 0
         for name, width in widths.items():
             out[name] = slice(start, start + width)
@@ -68,7 +72,7 @@ class Manager(nn.Module):
         super().__init__()
         c = config
         layout = c.layout()
-        self.in_dim = layout["phase"].stop
+        self.in_dim = layout["proposal"].stop
         columns = torch.arange(self.in_dim)
         if not c.read_prior_features:
             columns = columns[layout["features"].stop:]
@@ -151,33 +155,37 @@ class ResidualPolicy(nn.Module):
 def manager_inputs(features: torch.Tensor, proprio: torch.Tensor, other_proprio: torch.Tensor,
                    text: torch.Tensor, base_action: torch.Tensor, arm_index: torch.Tensor, num_arms: int,
                    reference: torch.Tensor | None = None, goal: torch.Tensor | None = None,
-                   phase: torch.Tensor | None = None) -> torch.Tensor:
+                   phase: torch.Tensor | None = None, proposal: torch.Tensor | None = None) -> torch.Tensor:
     """The Manager's input row: the arm's visual features, both arms' proprioception, the instruction, the
     prior's own action, the arm's one-hot, (with retrieval) the retrieved temporal reference and (when the
-    residual reads them) the goal's location from the projection and the (arm, keyframe) one-hot ``phase``."""
+    residual reads them) the goal's location from the projection, the (arm, keyframe) one-hot ``phase`` and the
+    prior's features at and around its proposal."""
     parts = [features, proprio, other_proprio, text, base_action, nn.functional.one_hot(arm_index, num_arms).float()]
-    if reference is not None:
-        parts.append(reference)
-    if goal is not None:
-        parts.append(goal)
-    if phase is not None:
-        parts.append(phase)
+    for part in (reference, goal, phase, proposal):
+        if part is not None:
+            parts.append(part)
     return torch.cat(parts, dim=-1)
 
 
 def manager_input_rows(config: ResidualConfig, features: torch.Tensor, proprio: torch.Tensor,
                        other_proprio: torch.Tensor, text: torch.Tensor, base_action: torch.Tensor,
                        arm_index: torch.Tensor, keyframe: torch.Tensor, reference: torch.Tensor | None = None,
-                       goal: torch.Tensor | None = None) -> torch.Tensor:
+                       goal: torch.Tensor | None = None, proposal: torch.Tensor | None = None) -> torch.Tensor:
     """(N, width) Manager input rows exactly as ``config`` reads them (``config.layout()``): training, refinement
-    and inference all build their rows here. The retrieved reference and the goal geometry must be given when the
-    config reads them; the (arm, keyframe) phase one-hot is derived from ``keyframe``."""
-    for name, width, value in (("reference", config.reference_dim, reference), ("goal", config.goal_dim, goal)):
+    and inference all build their rows here. The retrieved reference, the goal geometry and the prior's proposal
+    features must be given when the config reads them; the (arm, keyframe) phase one-hot is derived from
+    ``keyframe``."""
+    for name, width, value in (("reference", config.reference_dim, reference), ("goal", config.goal_dim, goal),
+                               ("proposal", config.proposal_dim, proposal)):
         if width and value is None:
             raise ValueError(f"this residual reads a {width}-wide {name}; pass it to build the Manager's input")
+        if width and value.shape[-1] != width:
+            raise ValueError(f"this residual reads a {width}-wide {name}, got {value.shape[-1]} columns: the "
+                             "prior is not the one it was trained with")
     phase = phase_one_hot(keyframe, arm_index, config.phase_dim, config.num_arms) if config.phase_dim else None
     return manager_inputs(features, proprio, other_proprio, text, base_action, arm_index, config.num_arms,
-                          reference if config.reference_dim else None, goal if config.goal_dim else None, phase)
+                          reference if config.reference_dim else None, goal if config.goal_dim else None, phase,
+                          proposal if config.proposal_dim else None)
 
 
 def phase_one_hot(keyframe: torch.Tensor, arm_index: torch.Tensor, width: int, num_arms: int) -> torch.Tensor:

@@ -104,8 +104,11 @@ class ResidualModelConfig:
     # The paper-literal residual of Eq. 4: translation and rotation only. Off (the default): the residual also
     # moves the prior's gripper logit and may hold an arm while the other acts (docs/residual.md).
     paper_literal: bool = False
+    # The Manager reads the frozen prior's features at and around its own proposal (Eq. 6's arm-specific visual
+    # input: the voxel prior's maps at its heat-map peak and one voxel around, the RVT prior's per-view maps).
+    proposal_features: bool = True
 
-    def residual_config(self, feature_dim: int, text_dim: int) -> ResidualConfig:
+    def residual_config(self, feature_dim: int, text_dim: int, proposal_dim: int = 0) -> ResidualConfig:
         """The network's config: the one place these switches become the residual's widths and flags
         (``ResidualConfig``'s own defaults are what a checkpoint written before a field existed meant)."""
         from bimanualshift.memory.reference import REFERENCE_DIM
@@ -118,7 +121,8 @@ class ResidualModelConfig:
                               phase_dim=self.phase_slots * len(ARM_ORDER), normalise_inputs=self.normalise_inputs,
                               read_prior_features=self.prior_features, geometric_skip=self.geometric_skip,
                               output_gate=self.output_gate, gripper_residual=not self.paper_literal,
-                              hold=not self.paper_literal)
+                              hold=not self.paper_literal,
+                              proposal_dim=proposal_dim if self.proposal_features else 0)
 
 
 @dataclass

@@ -120,14 +120,18 @@ def residual_data(config: ResidualConfig, paths: list[Path], prior_step: FrozenP
         proprio[:, :3] += torch.as_tensor(offsets)
         if samples.other_proprio.any():
             other[:, :3] += torch.as_tensor(offsets)
-        features, base = [], []
+        features, base, proposal = [], [], []
         with torch.no_grad():
             for start in range(0, len(samples), 32):
                 sl = slice(start, start + 32)
-                out = prior_step.prior.predict(scene[sl], proprio[sl], prior_text[sl])
+                batch = (scene[sl], proprio[sl], prior_text[sl])
+                out = prior_step.prior.predict(*batch)
                 features.append(out.features)
                 base.append(out.base_action())
+                if config.proposal_dim:
+                    proposal.append(prior_step.prior.proposal_features(*batch, out))
         features_t, base_t = torch.cat(features), torch.cat(base)
+        proposal_t = torch.cat(proposal) if proposal else None
         if copy == 0:
             first_features = features_t
             if build_memory is not None:
@@ -139,7 +143,7 @@ def residual_data(config: ResidualConfig, paths: list[Path], prior_step: FrozenP
             reference = retrieved_references(samples, first_features, text, base_t, memory, own_memory)
         goal = torch.as_tensor(shift_goal_geometry(samples.goal, offsets)) if config.goal_dim else None
         inputs = manager_input_rows(config, features_t, proprio, other, text, base_t, arm_index,
-                                    torch.as_tensor(samples.keyframe), reference, goal)
+                                    torch.as_tensor(samples.keyframe), reference, goal, proposal_t)
         translation = torch.as_tensor(samples.action_pos + offsets) - base_t[:, :3]
         rotation = torch.as_tensor(np.stack([rotation_difference(t, b) for t, b in
                                              zip(samples.action_quat, base_t[:, 3:7].numpy())]), dtype=torch.float32)
@@ -268,12 +272,16 @@ def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Pat
     prior = prior if prior is not None else UnimanualPrior.from_pretrained(cfg.prior)
     prior_step = FrozenPriorStep(prior, default_text_encoder(), use_projection=cfg.model.use_projection,
                              locate_goal=cfg.model.goal_geometry, segmenter=cfg.model.segmenter,
-                             segmenter_options=segmenter_options(cfg.model.grounding_dino, cfg.model.sam))
+                             segmenter_options=segmenter_options(cfg.model.grounding_dino, cfg.model.sam),
+                             proposal_features=cfg.model.proposal_features)
     paths = list_episodes(cfg.dataset.data, cfg.dataset.task)[: cfg.dataset.demos]
     if not paths:
         raise FileNotFoundError(f"no bimanual demos for {cfg.dataset.task} under {cfg.dataset.data}; run "
                                 f"`bimanualshift collect --task {cfg.dataset.task} --out {cfg.dataset.data}` first")
-    rcfg = cfg.model.residual_config(prior.feature_dim, text_encoder.dim)
+    rcfg = cfg.model.residual_config(prior.feature_dim, text_encoder.dim, prior.proposal_feature_dim)
+    if cfg.model.proposal_features and not prior.proposal_feature_dim:
+        raise ValueError(f"the prior {cfg.prior} exposes no local features for the Manager to read at its proposal; "
+                         "train with --proposal-features false")
     data, model, optim = cfg.dataset, cfg.model, cfg.optim
     earlier_state, earlier_memory = (load_earlier(cfg.init_from, rcfg, model.retrieval) if cfg.init_from
                                      else (None, None))

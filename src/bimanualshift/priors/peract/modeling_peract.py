@@ -97,14 +97,31 @@ class PerActPrior(UnimanualPrior):
     def local_features(self, voxels: torch.Tensor, proprio: torch.Tensor, text: torch.Tensor,
                        points: torch.Tensor) -> torch.Tensor:
         """The full-resolution stem and the decoded patch grid, trilinearly sampled at arm-frame points (B, 3)."""
-        out = self.forward(voxels, proprio, text, keep_maps=True)
+        return self.sample_maps(self.forward(voxels, proprio, text, keep_maps=True), points[:, None])[:, 0]
+
+    def sample_maps(self, out: dict[str, torch.Tensor], points: torch.Tensor) -> torch.Tensor:
+        """(B, K, STEM + dim) the stem and decoded maps of ``out`` (``forward(..., keep_maps=True)``) read
+        trilinearly at arm-frame points (B, K, 3)."""
         lower = torch.as_tensor(self.grid.lower, dtype=torch.float32)
         upper = torch.as_tensor(self.grid.upper, dtype=torch.float32)
         unit = 2 * (points.float() - lower) / (upper - lower) - 1  # [-1, 1] per axis (x, y, z)
         # grid_sample reads (x, y, z) as (W, H, D); the maps are (D, H, W) = (x, y, z) index order: flip.
-        where = unit.flip(-1)[:, None, None, None, :]  # (B, 1, 1, 1, 3)
-        sampled = [F.grid_sample(m, where, align_corners=False).flatten(1) for m in (out["stem"], out["decoded"])]
-        return torch.cat(sampled, dim=-1)
+        where = unit.flip(-1)[:, :, None, None, :]  # (B, K, 1, 1, 3)
+        sampled = [F.grid_sample(m, where, align_corners=False)[..., 0, 0] for m in (out["stem"], out["decoded"])]
+        return torch.cat(sampled, dim=1).transpose(1, 2)
+
+    @property
+    def proposal_feature_dim(self) -> int:
+        return 2 * self.local_feature_dim
+
+    def proposal_maps(self, out: dict[str, torch.Tensor], position: torch.Tensor) -> torch.Tensor:
+        """The maps at the proposed position and their mean over its six neighbours one voxel away: what the
+        prior computed where it points, and just around it."""
+        step = torch.as_tensor(self.grid.voxel_size, dtype=torch.float32)
+        offsets = torch.cat([torch.diag(step), -torch.diag(step)])  # (6, 3)
+        points = torch.cat([position[:, None], position[:, None] + offsets[None]], 1)  # (B, 7, 3)
+        sampled = self.sample_maps(out, points)
+        return torch.cat([sampled[:, 0], sampled[:, 1:].mean(1)], -1)
 
     def voxel_offset(self, out: dict[str, torch.Tensor], flat_index: torch.Tensor) -> torch.Tensor:
         """(B, 3) the target's offset inside voxel ``flat_index`` (B,), in voxels within [-0.5, 0.5], from the stem
@@ -178,7 +195,10 @@ class PerActPrior(UnimanualPrior):
 
     @torch.no_grad()
     def predict(self, voxels: torch.Tensor, proprio: torch.Tensor, text: torch.Tensor) -> PriorOutput:
-        return self.decode_actions(self.forward(voxels, proprio, text))
+        out = self.forward(voxels, proprio, text, keep_maps=True)
+        decoded = self.decode_actions(out)
+        decoded.proposal_features = self.proposal_maps(out, decoded.position)
+        return decoded
 
     def discrete_targets(self, actions: dict[str, torch.Tensor]) -> dict[str, torch.Tensor]:
         """Continuous arm-frame targets (first keyframe of the chunk) -> voxel index, Euler bins, flags."""

@@ -126,6 +126,10 @@ class RVTPrior(UnimanualPrior):
     def local_feature_dim(self) -> int:
         return len(VIEWS) * self.config.decoder_dim
 
+    @property
+    def proposal_feature_dim(self) -> int:
+        return 2 * self.local_feature_dim
+
     def _coarse_cube(self, b: int) -> tuple[torch.Tensor, torch.Tensor]:
         return self.workspace_centre.expand(b, 3), torch.full((b,), self.workspace_half)
 
@@ -159,6 +163,7 @@ class RVTPrior(UnimanualPrior):
                 "rotation": out[:, : 3 * r].view(-1, 3, r), "gripper": out[:, 3 * r: 3 * r + 2],
                 "collision": out[:, 3 * r + 2:]}
 
+    @torch.no_grad()
     def predict(self, voxels: torch.Tensor, proprio: torch.Tensor, text: torch.Tensor) -> PriorOutput:
         """``voxels`` is this prior's observation: the arm's point cloud (B, P, 6), see ``observation``."""
         out = self.forward(voxels, proprio, text)
@@ -166,12 +171,16 @@ class RVTPrior(UnimanualPrior):
         quat = torch.as_tensor(np.stack([euler_bins_to_quat(b, self.config.rotation_bin_degrees) for b in bins]),
                                dtype=torch.float32)
         features = torch.cat([out["coarse"]["pooled"], out["fine"]["pooled"], out["point"]], -1)
+        coarse = out["coarse"]
+        # at the proposal: the fine stage's per-view maps (already read there) and the coarse stage's
+        proposal = torch.cat([out["point"], sample_maps(coarse["maps"], out["position"], coarse["centre"],
+                                                        coarse["half"])], -1)
         return PriorOutput(
             position=out["position"], quat=quat, gripper_open=out["gripper"].softmax(-1)[:, 1],
             ignore_collisions=out["collision"].softmax(-1)[:, 1], features=features,
             logits={"translation": out["fine"]["heat"], "translation_coarse": out["coarse"]["heat"],
                     "rotation": out["rotation"], "gripper": out["gripper"], "collision": out["collision"]},
-            coarse_position=out["coarse_position"])
+            coarse_position=out["coarse_position"], proposal_features=proposal)
 
     def local_features(self, voxels: torch.Tensor, proprio: torch.Tensor, text: torch.Tensor,
                        points: torch.Tensor) -> torch.Tensor:
