@@ -7,7 +7,7 @@ from bimanualshift.data.frames import KeyframeObservation
 from bimanualshift.geometry.cameras import depth_to_world_points
 from bimanualshift.geometry.frames import ArmFrame
 from bimanualshift.geometry.voxels import VoxelGrid
-from bimanualshift.perception.goal_geometry import GOAL_GEOMETRY_DIM, goal_geometry, shift_goal_geometry
+from bimanualshift.perception.goal_geometry import GOAL_GEOMETRY_DIM, goal_geometry
 from bimanualshift.perception.observation import DEFAULT_ARM_BOUNDS, ArmObservationBuilder
 from bimanualshift.perception.projection import ArmProjection
 from bimanualshift.perception.segmenters.simulator import SimulatorSegmenter
@@ -35,16 +35,6 @@ def test_points_outside_the_workspace_or_too_few_count_as_unseen() -> None:
     mixed = np.r_[far, np.full((20, 3), 0.25)]  # the outliers are dropped, not averaged in
     np.testing.assert_allclose(goal_geometry(mixed, frame, BOUNDS)[:3], frame.points_to_arm(np.full((1, 3), 0.25))[0],
                                atol=1e-6)
-
-
-def test_shifting_moves_seen_goals_and_leaves_unseen_ones_zero() -> None:
-    seen = np.r_[np.arange(9, dtype=np.float32), 1.0]
-    unseen = np.zeros(GOAL_GEOMETRY_DIM, np.float32)
-    shifted = shift_goal_geometry(np.stack([seen, unseen]), np.array([[0.1, 0.0, -0.1], [0.1, 0.0, -0.1]]))
-    np.testing.assert_allclose(shifted[0, :3], seen[:3] + [0.1, 0.0, -0.1], atol=1e-6)
-    np.testing.assert_allclose(shifted[0, 6:9], seen[6:9] + [0.1, 0.0, -0.1], atol=1e-6)
-    assert shifted[0, 9] == 1.0
-    np.testing.assert_array_equal(shifted[1], unseen)
 
 
 def test_projection_locates_the_goal_object_of_a_real_scene(bimanual_episode_path: Path) -> None:

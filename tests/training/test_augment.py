@@ -56,3 +56,23 @@ def test_batches_whose_target_would_leave_the_grid_stay_unchanged() -> None:
     assert torch.equal(new_voxels[1], voxels[1])
     assert not torch.equal(new_actions["position"][0], actions["position"][0])
     assert not torch.equal(new_proprio[0, :3], proprio[0, :3])  # the gripper's pose moves with the scene
+
+
+def test_goal_geometry_moves_with_the_scene_and_unseen_goals_stay_zero() -> None:
+    from bimanualshift.training.augment import transform_goal_geometry
+
+    low, high = np.array([0.5, -0.1, 0.0]), np.array([0.6, 0.1, 0.05])
+    seen = torch.as_tensor(np.r_[(low + high) / 2, low, high, 1.0], dtype=torch.float32)
+    goal = torch.stack([seen, torch.zeros(10)])
+    yaw, shift = torch.tensor([0.3, 0.3]), torch.tensor([[0.02, -0.03, 0.0]] * 2)
+    moved = transform_goal_geometry(goal, GRID, yaw, shift)
+    torch.testing.assert_close(moved[0, :3], transform_points(seen[None, :3], GRID, yaw[:1], shift[:1])[0])
+    # every corner of the moved box lies inside the new bounds, and the bounds touch them
+    corners = torch.tensor([[x, y, z] for x in (low[0], high[0]) for y in (low[1], high[1]) for z in (low[2], high[2])],
+                           dtype=torch.float32)
+    turned = transform_points(corners[None], GRID, yaw[:1], shift[:1])[0]
+    torch.testing.assert_close(moved[0, 3:6], turned.min(0).values)
+    torch.testing.assert_close(moved[0, 6:9], turned.max(0).values)
+    assert moved[0, 9] == 1.0 and torch.equal(moved[1], torch.zeros(10))
+    pure_shift = transform_goal_geometry(goal[:1], GRID, torch.zeros(1), shift[:1])  # exact for a translation
+    torch.testing.assert_close(pure_shift[0, :9], seen[:9] + shift[0].repeat(3))

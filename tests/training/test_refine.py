@@ -99,7 +99,8 @@ def test_refine_corrects_grows_memory_resumes_and_keeps_prior_frozen(trained: Pa
     assert "correction" in summary["history"][-1]
     bank = MemoryBank.load(best / MEMORY_FILE)
     assert len(bank) == len(bank_before) + summary["inserted_into_memory"]
-    assert summary["inserted_into_memory"] == summary["corrected_successes"]
+    # every verified success joins the memory: the policy's own and the corrected ones
+    assert summary["inserted_into_memory"] == summary["policy_successes"] + summary["corrected_successes"]
     assert all(e.source == "refinement" for e in bank.entries[len(bank_before):])
     prior_after = load_file(str(Path(meta["prior"]) / "model.safetensors"))
     for key, value in prior_before.items():

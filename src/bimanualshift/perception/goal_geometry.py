@@ -45,12 +45,3 @@ def goal_geometry(points_world: np.ndarray, frame: ArmFrame, bounds: tuple[float
     out[6:9] = np.percentile(points, 95, axis=0)
     out[9] = 1.0
     return out
-
-
-def shift_goal_geometry(goal: np.ndarray, offsets: np.ndarray) -> np.ndarray:
-    """(N, GOAL_GEOMETRY_DIM) the geometry of a scene translated by ``offsets`` (N, 3); unseen goals stay zero."""
-    goal = np.array(goal, np.float32, copy=True)
-    seen = goal[:, 9:10] > 0
-    for start in (0, 3, 6):
-        goal[:, start:start + 3] += np.where(seen, offsets, 0.0)
-    return goal

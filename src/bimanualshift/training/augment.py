@@ -98,3 +98,50 @@ def transform_voxels(voxels: torch.Tensor, grid: VoxelGrid, yaw: torch.Tensor, t
     theta = torch.cat([a.flip(1).flip(2), b.flip(1)[..., None]], dim=-1)
     sample_grid = F.affine_grid(theta, list(voxels.shape), align_corners=False)
     return F.grid_sample(voxels.float(), sample_grid, mode="nearest", padding_mode="zeros", align_corners=False)
+
+
+def sample_motion(augmentation: Se3Augmentation, generator: torch.Generator, targets: torch.Tensor, grid: VoxelGrid
+                  ) -> tuple[torch.Tensor, torch.Tensor]:
+    """Per sample a random motion (yaw (B,), translation (B, 3)); the identity for samples whose ``targets``
+    (B, ..., 3) it would move out of the grid."""
+    yaw, translation = augmentation.sample(generator, len(targets))
+    moved = transform_points(targets, grid, yaw, translation)
+    lower, upper = torch.as_tensor(grid.lower, dtype=moved.dtype), torch.as_tensor(grid.upper, dtype=moved.dtype)
+    inside = ((moved >= lower) & (moved < upper)).flatten(1, -2).all(-1).all(-1)
+    return yaw * inside, translation * inside[:, None]
+
+
+def transform_scene(scene: torch.Tensor, grid: VoxelGrid, yaw: torch.Tensor, translation: torch.Tensor
+                    ) -> torch.Tensor:
+    """A scene moved by the per-sample motion: voxels (B, 4, S, S, S) resampled, or a cloud (B, P, 6) whose points
+    move and whose colours stay."""
+    if scene.dim() == 3:
+        return torch.cat([transform_points(scene[..., :3], grid, yaw, translation), scene[..., 3:]], -1)
+    return transform_voxels(scene, grid, yaw, translation)
+
+
+def transform_poses(poses: torch.Tensor, grid: VoxelGrid, yaw: torch.Tensor, translation: torch.Tensor,
+                    starts: tuple[int, ...] = (0,)) -> torch.Tensor:
+    """Rows (B, W) holding a position and an x y z w quaternion at each of ``starts`` (proprioception: the own
+    arm's pose at 0, the other arm's further on), those poses moved by the per-sample motion."""
+    out = poses.clone()
+    for start in starts:
+        out[:, start:start + 3] = transform_points(poses[:, start:start + 3], grid, yaw, translation)
+        out[:, start + 3:start + 7] = transform_quats(poses[:, start + 3:start + 7], yaw)
+    return out
+
+
+def transform_goal_geometry(goal: torch.Tensor, grid: VoxelGrid, yaw: torch.Tensor, translation: torch.Tensor
+                            ) -> torch.Tensor:
+    """(B, 10) goal geometry (centroid, 5th / 95th percentile corners, seen flag) of the moved scene: the centroid
+    moves exactly; the corners become the axis-aligned bounds of the moved box (exact for a pure translation, a
+    little wider under yaw). Unseen goals stay all zeros."""
+    out = goal.clone()
+    seen = goal[:, 9] > 0
+    out[:, 0:3] = transform_points(goal[:, 0:3], grid, yaw, translation)
+    low, high = goal[:, 3:6], goal[:, 6:9]
+    pick = torch.tensor([[(i >> a) & 1 for a in range(3)] for i in range(8)], dtype=torch.bool)  # (8, 3)
+    corners = torch.where(pick[None], high[:, None], low[:, None])  # (B, 8, 3)
+    moved = transform_points(corners, grid, yaw, translation)
+    out[:, 3:6], out[:, 6:9] = moved.min(1).values, moved.max(1).values
+    return torch.where(seen[:, None], out, goal)

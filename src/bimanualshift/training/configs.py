@@ -74,8 +74,12 @@ class ResidualDataConfig:
     data: str = "data/bimanual"
     validation_data: str = "data/bimanual_val"
     demos: int = 20
-    augment_copies: int = 0  # shifted copies of every demo keyframe, each through the frozen prior
-    augment_max_voxels: int = 2
+    # The paper's SE(3) augmentation: copies of every demo keyframe under a random yaw about the grid's vertical
+    # axis and a horizontal shift (targets, both arms' poses, the goal and the reference move with the scene),
+    # each passed through the frozen prior once and cached (0: no augmentation).
+    augment_copies: int = 8
+    augment_translation_m: float = 0.04
+    augment_yaw_deg: float = 15.0
 
 
 @dataclass

@@ -25,7 +25,14 @@ from bimanualshift.priors import UnimanualPrior
 from bimanualshift.priors.base import PRIORS, prior_type, resolve_prior_path
 from bimanualshift.priors.base import build_prior as build_prior_network
 from bimanualshift.sim.task import resolve_task_names, task_names
-from bimanualshift.training.augment import Se3Augmentation, transform_points, transform_quats, transform_voxels
+from bimanualshift.training.augment import (
+    Se3Augmentation,
+    sample_motion,
+    transform_points,
+    transform_poses,
+    transform_quats,
+    transform_scene,
+)
 from bimanualshift.training.configs import PretrainConfig
 from bimanualshift.training.distributed import Distributed, init_distributed, loss_module
 from bimanualshift.training.keyframe_errors import validation_summary
@@ -76,22 +83,11 @@ def augment_batch(scene: torch.Tensor, proprio: torch.Tensor, actions: dict[str,
     """Move the scene (voxels (B, 4, S, S, S), or a point cloud (B, P, 6)), the gripper's pose in the
     proprioception (and the further poses starting at ``extra_poses``, e.g. the other arm's) and the action chunk
     by one random rigid motion per sample; samples whose targets would leave the grid stay as they were."""
-    yaw, translation = augmentation.sample(generator, len(scene))
-    moved = transform_points(actions["position"], grid, yaw, translation)
-    lower, upper = torch.as_tensor(grid.lower), torch.as_tensor(grid.upper)
-    inside = ((moved >= lower) & (moved < upper)).all(-1).all(-1)
-    yaw, translation = yaw * inside, translation * inside[:, None]
+    yaw, translation = sample_motion(augmentation, generator, actions["position"], grid)
     actions = {**actions, "position": transform_points(actions["position"], grid, yaw, translation),
                "quat": transform_quats(actions["quat"], yaw)}
-    proprio = proprio.clone()
-    for start in (0, *extra_poses):
-        proprio[:, start:start + 3] = transform_points(proprio[:, start:start + 3], grid, yaw, translation)
-        proprio[:, start + 3:start + 7] = transform_quats(proprio[:, start + 3:start + 7], yaw)
-    if scene.dim() == 3:  # a cloud: its points move, their colours stay
-        moved_scene = torch.cat([transform_points(scene[..., :3], grid, yaw, translation), scene[..., 3:]], -1)
-    else:
-        moved_scene = transform_voxels(scene, grid, yaw, translation)
-    return moved_scene, proprio, actions
+    proprio = transform_poses(proprio, grid, yaw, translation, (0, *extra_poses))
+    return transform_scene(scene, grid, yaw, translation), proprio, actions
 
 
 def global_batch_shard(batches: PriorBatches, index: torch.Tensor, generator: torch.Generator,

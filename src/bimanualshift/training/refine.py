@@ -38,6 +38,7 @@ from bimanualshift.methods.bimanualshift import MEMORY_FILE, BimanualShift, load
 from bimanualshift.residual.output_gate import choose_output_scale, reset_output_scale
 from bimanualshift.rollout.loop import rollout
 from bimanualshift.sim.env import ManipulationEnv
+from bimanualshift.training.augment import Se3Augmentation
 from bimanualshift.training.configs import RefineConfig, TrainConfig
 from bimanualshift.training.loop import run_training
 from bimanualshift.training.optim import make_lamb
@@ -222,8 +223,9 @@ def refine(cfg: RefineConfig, text_encoder: TextEncoder | None = None) -> Path:
         raise FileNotFoundError(f"the demos the checkpoint was trained on are gone: none for {task} under "
                                 f"{train_cfg.data}")
     encoder = policy.text_encoder
-    train = residual_data(residual.config, paths, prior_step, encoder, "prior outputs (demos)", memory=memory,
-                          own_memory=True)
+    augmentation = Se3Augmentation(train_cfg.augment_translation_m, train_cfg.augment_yaw_deg)
+    train = residual_data(residual.config, paths, prior_step, encoder, "prior outputs (demos)", augmentation,
+                          train_cfg.augment_copies, cfg.seed, memory=memory, own_memory=True)
     val_paths = list_episodes(train_cfg.validation_data, task)
     val = residual_data(residual.config, val_paths, prior_step, encoder, "prior outputs (val)",
                         memory=memory) if val_paths else train

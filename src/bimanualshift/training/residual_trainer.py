@@ -19,17 +19,25 @@ import torch.nn.functional as F
 from bimanualshift.data.episode import list_episodes
 from bimanualshift.encoders.text import TextEncoder, default_text_encoder, make_text_encoder
 from bimanualshift.geometry.frames import rotation_difference
+from bimanualshift.geometry.voxels import VoxelGrid
 from bimanualshift.memory.bank import MemoryBank, MemoryEntry
 from bimanualshift.memory.reference import REFERENCE_DIM, episode_key, reference_vector
 from bimanualshift.methods.bimanualshift import MEMORY_FILE, save_residual
 from bimanualshift.methods.prior_step import FrozenPriorStep
 from bimanualshift.perception.arm_samples import ArmSamples, build_arm_samples
-from bimanualshift.perception.goal_geometry import shift_goal_geometry
 from bimanualshift.priors.base import UnimanualPrior
 from bimanualshift.residual.manager import ResidualConfig, ResidualPolicy, manager_input_rows
 from bimanualshift.residual.output_gate import choose_output_scale, reset_output_scale
 from bimanualshift.residual.skills import SkillBasis
-from bimanualshift.training.augment import random_shift, shift_voxels
+from bimanualshift.training.augment import (
+    Se3Augmentation,
+    sample_motion,
+    transform_goal_geometry,
+    transform_points,
+    transform_poses,
+    transform_quats,
+    transform_scene,
+)
 from bimanualshift.training.configs import ARM_ORDER, TrainConfig
 from bimanualshift.training.loop import run_training
 from bimanualshift.training.optim import make_optimizer
@@ -78,53 +86,52 @@ def hold_labels(samples: ArmSamples) -> np.ndarray:
 
 
 def residual_data(config: ResidualConfig, paths: list[Path], prior_step: FrozenPriorStep, text_encoder: TextEncoder,
-                  desc: str,
-                  augment_copies: int = 0, augment_max_voxels: int = 0, seed: int = 0,
+                  desc: str, augmentation: Se3Augmentation | None = None, augment_copies: int = 0, seed: int = 0,
                   memory: MemoryBank | None = None, own_memory: bool = False, build_memory: float | None = None,
                   task: str = "", earlier_memory: MemoryBank | None = None) -> ResidualData:
     """Manager inputs (as ``config`` reads them) and residual targets for every (keyframe, arm), from the frozen
     prior's outputs.
 
-    With ``augment_copies`` > 0, each sample is also seen through that many whole-voxel translations of
-    the scene (the targets and both arms' proprioception move with it), and the frozen prior is run on
-    each shifted copy: augmentation the prior's cache allows, since it is computed once before training.
+    With ``augment_copies`` > 0, each sample is also seen through that many random rigid motions of its scene
+    (``augmentation``: a yaw about the grid's vertical axis and a horizontal shift, the paper's SE(3)
+    augmentation); the targets, both arms' poses, the goal geometry and the retrieved reference move with it, and
+    the frozen prior is run on each moved copy once: a fixed pool of augmented samples the prior's cache allows.
 
     With a ``memory`` bank, each sample also gets the retrieved temporal reference of its episode; with
     ``own_memory`` the bank's first entries are these very episodes (in order) and an episode never retrieves
     itself. ``build_memory`` (a confidence threshold) builds that bank from these episodes in the same pass,
     followed by the entries of ``earlier_memory`` (an earlier task's bank) when given.
     """
+    if augment_copies and augmentation is None:
+        raise ValueError("augment_copies > 0 needs an augmentation (Se3Augmentation)")
     samples = build_arm_samples(paths, prior_step.builder, prior_step.prior.config.max_keyframes, desc=desc)
     grid = prior_step.builder.grid
+    n = len(samples)
     arm_index = torch.as_tensor([ARM_ORDER.index(a) if a in ARM_ORDER else 0 for a in samples.arm])
     text = torch.as_tensor(text_encoder.encode(samples.instructions))  # the residual's (Manager, memory key)
     prior_text = torch.as_tensor(prior_step.text_encoder.encode(samples.instructions))  # the prior's own
     generator = torch.Generator().manual_seed(seed)
     gripper = torch.as_tensor(samples.gripper_open, dtype=torch.float32)
     hold = torch.as_tensor(hold_labels(samples))
+    clouds = prior_step.prior.observation == "points"
+    scene = torch.as_tensor(samples.points if clouds else samples.voxels)
+    target_pos, target_quat = torch.as_tensor(samples.action_pos), torch.as_tensor(samples.action_quat)
+    two_arms = bool(samples.other_proprio.any())
     parts = []
     for copy in range(1 + augment_copies):
-        clouds = prior_step.prior.observation == "points"
-        scene = torch.as_tensor(samples.points if clouds else samples.voxels).float()
-        offsets = np.zeros((len(samples), 3), np.float32)
-        if copy > 0:
-            for j in range(len(samples)):
-                shift = random_shift(generator, augment_max_voxels)
-                offsets[j] = np.asarray(shift) * grid.voxel_size
-                if clouds:
-                    scene[j, :, :3] += torch.as_tensor(offsets[j])
-                else:
-                    scene[j] = shift_voxels(scene[j], shift)
-        proprio = torch.as_tensor(samples.proprio).clone()
-        other = torch.as_tensor(samples.other_proprio).clone()
-        proprio[:, :3] += torch.as_tensor(offsets)
-        if samples.other_proprio.any():
-            other[:, :3] += torch.as_tensor(offsets)
+        if copy == 0:
+            yaw, shift = torch.zeros(n), torch.zeros(n, 3)
+        else:
+            yaw, shift = sample_motion(augmentation, generator, target_pos[:, None], grid)
+        proprio = transform_poses(torch.as_tensor(samples.proprio), grid, yaw, shift)
+        other = torch.as_tensor(samples.other_proprio)
+        other = transform_poses(other, grid, yaw, shift) if two_arms else other
         features, base, proposal = [], [], []
         with torch.no_grad():
-            for start in range(0, len(samples), 32):
+            for start in range(0, n, 32):
                 sl = slice(start, start + 32)
-                batch = (scene[sl], proprio[sl], prior_text[sl])
+                moved = transform_scene(scene[sl].float(), grid, yaw[sl], shift[sl]) if copy else scene[sl].float()
+                batch = (moved, proprio[sl], prior_text[sl])
                 out = prior_step.prior.predict(*batch)
                 features.append(out.features)
                 base.append(out.base_action())
@@ -140,13 +147,16 @@ def residual_data(config: ResidualConfig, paths: list[Path], prior_step: FrozenP
                     memory.extend(earlier_memory)
         reference = None
         if memory is not None:
-            reference = retrieved_references(samples, first_features, text, base_t, memory, own_memory)
-        goal = torch.as_tensor(shift_goal_geometry(samples.goal, offsets)) if config.goal_dim else None
+            reference = retrieved_references(samples, first_features, text, base_t, memory, own_memory,
+                                             (grid, yaw, shift))
+        goal = (transform_goal_geometry(torch.as_tensor(samples.goal), grid, yaw, shift) if config.goal_dim
+                else None)
         inputs = manager_input_rows(config, features_t, proprio, other, text, base_t, arm_index,
                                     torch.as_tensor(samples.keyframe), reference, goal, proposal_t)
-        translation = torch.as_tensor(samples.action_pos + offsets) - base_t[:, :3]
-        rotation = torch.as_tensor(np.stack([rotation_difference(t, b) for t, b in
-                                             zip(samples.action_quat, base_t[:, 3:7].numpy())]), dtype=torch.float32)
+        translation = transform_points(target_pos, grid, yaw, shift) - base_t[:, :3]
+        quat = transform_quats(target_quat, yaw).numpy()
+        rotation = torch.as_tensor(np.stack([rotation_difference(t, b) for t, b in zip(quat, base_t[:, 3:7].numpy())]),
+                                   dtype=torch.float32)
         parts.append(ResidualData(inputs, translation, rotation, gripper=gripper, hold=hold))
     fields = ("inputs", "translation", "rotation", *TARGET_FIELDS)
     merged = {f: torch.cat([getattr(p, f) for p in parts]) for f in fields}
@@ -183,18 +193,32 @@ def _episode_rows(samples: ArmSamples, features: torch.Tensor, text: torch.Tenso
     return keys, trajectories, names
 
 
+Motion = tuple[VoxelGrid, torch.Tensor, torch.Tensor]  # (grid, yaw (N,), translation (N, 3)) of an augmented copy
+
+
 def retrieved_references(samples: ArmSamples, first_features: torch.Tensor, text: torch.Tensor,
-                         base: torch.Tensor, memory: MemoryBank, own_memory: bool) -> torch.Tensor:
-    """(N, REFERENCE_DIM): each sample's retrieved reference at its keyframe, for its arm."""
+                         base: torch.Tensor, memory: MemoryBank, own_memory: bool, motion: Motion | None = None
+                         ) -> torch.Tensor:
+    """(N, REFERENCE_DIM): each sample's retrieved reference at its keyframe, for its arm; in an augmented copy
+    (``motion``) the stored action moves with the scene, so it stays where the scene's objects are."""
     keys, _, _ = _episode_rows(samples, first_features, text)
     episodes = list(np.unique(samples.episode))
     found = [memory.search(key, exclude={e} if own_memory else set()) for e, key in enumerate(keys)]
+    zero = np.zeros(8, np.float32)  # relative to a zero base: the stored position itself
     out = np.zeros((len(samples), REFERENCE_DIM), np.float32)
+    retrieved = torch.zeros(len(samples), dtype=torch.bool)  # without a retrieval the row stays all zeros
     for i in range(len(samples)):
         e = episodes.index(samples.episode[i])
         arms = list(dict.fromkeys(samples.arm[j] for j in np.flatnonzero(samples.episode == samples.episode[i])))
-        out[i] = reference_vector(found[e], int(samples.keyframe[i]), arms.index(samples.arm[i]), base[i].numpy())
-    return torch.as_tensor(out)
+        out[i] = reference_vector(found[e], int(samples.keyframe[i]), arms.index(samples.arm[i]), zero)
+        retrieved[i] = found[e] is not None
+    stored = torch.as_tensor(out)
+    if motion is not None:
+        grid, yaw, shift = motion
+        stored[:, :7] = torch.where(retrieved[:, None], transform_poses(stored[:, :7], grid, yaw, shift),
+                                    stored[:, :7])
+    stored[:, :3] -= torch.where(retrieved[:, None], base[:, :3], torch.zeros_like(base[:, :3]))
+    return stored
 
 
 @dataclass(frozen=True)
@@ -285,8 +309,9 @@ def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Pat
     data, model, optim = cfg.dataset, cfg.model, cfg.optim
     earlier_state, earlier_memory = (load_earlier(cfg.init_from, rcfg, model.retrieval) if cfg.init_from
                                      else (None, None))
-    train = residual_data(rcfg, paths, prior_step, text_encoder, "prior outputs (train)", data.augment_copies,
-                          data.augment_max_voxels, optim.seed,
+    augmentation = Se3Augmentation(data.augment_translation_m, data.augment_yaw_deg)
+    train = residual_data(rcfg, paths, prior_step, text_encoder, "prior outputs (train)", augmentation,
+                          data.augment_copies, optim.seed,
                           build_memory=model.retrieval_threshold if model.retrieval else None, task=data.task,
                           earlier_memory=earlier_memory)
     memory = train.memory
