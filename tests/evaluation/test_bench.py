@@ -7,9 +7,11 @@ import shutil
 from dataclasses import replace
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from bimanualshift.evaluation.bench import BenchConfig, bench_rows, read_episodes, run_bench
+from bimanualshift.evaluation.explain import explain_rows
 from bimanualshift.evaluation.stats import wilson_interval
 from bimanualshift.evaluation.tables import bench_table
 from bimanualshift.registry import METHODS, get_method
@@ -77,6 +79,22 @@ def test_bench_runs_resumes_and_reports(demo_root: Path, tmp_path: Path) -> None
     summary = run_bench(cfg, command="test")
     log = tmp_path / "out" / "episodes.jsonl"
     first = read_episodes(log)
+    # every episode's keyframes are logged beside it: executed and expert actions, and the policy's own log
+    logged = {(r["method"], r["seed"]): r["steps"] for r in read_episodes(tmp_path / "out" / "keyframes.jsonl")}
+    assert set(logged) == {(e["method"], e["seed"]) for e in first}
+    for e in first:
+        steps = logged[(e["method"], e["seed"])]
+        assert len(steps) == e["keyframes"] and np.asarray(steps[0]["executed"]).shape == (2, 9)
+        assert np.asarray(steps[0]["expert"]).shape == (2, 9) and steps[-1]["stages_done"] == e["stages_done"]
+        arms = steps[0]["policy"]["arms"]
+        assert [a["arm"] for a in arms] == ["left", "right"] and len(arms[0]["prior"]) == 7
+        if e["method"] == "bimanualshift":
+            np.testing.assert_allclose([a["final"] for a in arms], np.asarray(steps[0]["executed"])[:, :7],
+                                       atol=1e-4)
+            assert {"held", "gripper", "residual_cm"} <= set(arms[0])
+    rows = {r["method"]: r for r in explain_rows(tmp_path / "out", "push_two_buttons")}
+    assert {m: r["failures"] for m, r in rows.items()} == {
+        m: sum(not e["success"] for e in first if e["method"] == m) for m in ("bimanualshift", "no_residual")}
     assert sorted((e["method"], e["seed"]) for e in first) == [
         ("bimanualshift", 200000), ("bimanualshift", 200001), ("no_residual", 200000), ("no_residual", 200001)]
     # A run killed mid-write: the last record lost and half a line left behind. Resuming re-runs only that one.

@@ -62,6 +62,8 @@ COMMANDS: dict[str, Command] = {
     "plot": Command("evaluate:plot", "redraw a bench or study folder's plots (success.png, stages.png) from its "
                     "summary.json, without running anything"),
     "eval": Command("evaluate:evaluate", "evaluate a method on held-out seeds"),
+    "explain": Command("evaluate:explain", "where each method's failures happen in a bench folder: the stage "
+                       "reached and the first keyframe and arm that strayed from the expert"),
     "demo": Command("demo:demo", "collect, (pre)train, train the residual, evaluate: the whole method",
                     config_file=True),
     "report": Command("evaluate:report", "regenerate the README tables from the result files"),

@@ -194,3 +194,24 @@ def report(args: ReportArgs) -> None:
     for readme in args.readme:
         names = render_readme(readme, args.results)
         print(f"{readme}: regenerated {', '.join(names) if names else 'no results blocks'}")
+
+
+@dataclass
+class ExplainArgs:
+    # a bench or study results folder (its episodes.jsonl and keyframes.jsonl)
+    folder: Annotated[str, tyro.conf.Positional, tyro.conf.arg(metavar="FOLDER")]
+    task: str  # the bimanual task whose failures to explain
+    method: list[str] = field(default_factory=list)  # only these methods (default: every one in the folder)
+    out: str = ""  # also write the rows as a JSON result file here
+
+
+def explain(args: ExplainArgs) -> None:
+    from bimanualshift.evaluation.explain import explain_rows, explain_text
+
+    rows = explain_rows(args.folder, args.task, args.method or None)
+    print(explain_text(rows, args.task))
+    if args.out:
+        from bimanualshift.utils.io import atomic_write_json
+
+        atomic_write_json(args.out, {"folder": args.folder, "task": args.task, "rows": rows})
+        print(f"wrote {args.out}")

@@ -16,3 +16,11 @@ class Policy(Protocol):
     def act(self, obs: object) -> np.ndarray:
         """One keyframe observation (``data.frames.KeyframeObservation``) -> (arms, action width) world rows."""
         ...
+
+
+class KeyframeLogging(Protocol):
+    """What a policy may add to each keyframe's log (``rollout`` asks for it after every ``act``): per arm its
+    frozen prior's action, its final action, whether it held, and the policy's own diagnostics such as the
+    retrieval similarity. Plain JSON values."""
+
+    def keyframe_log(self) -> dict: ...

@@ -147,10 +147,21 @@ def run_bench_episode(job: BenchJob) -> dict[str, Any]:
         write_video(job.video, record.frames)
     return {"task": job.task, "method": job.method, "perturbation": job.perturbation, "seed": job.seed,
             "success": record.success, "keyframes": record.keyframes, "budget": budget,
-            "stages_done": record.stages_done, "instruction": record.instruction}
+            "stages_done": record.stages_done, "instruction": record.instruction, "steps": record.steps}
+
+
+def record_episode(out: Path, episode: dict[str, Any]) -> None:
+    """Append a finished episode to ``episodes.jsonl`` and its per-keyframe log to ``KEYFRAME_LOG`` (one line
+    per episode, keyed like the episode), so the summary stays small and the log explains its failures."""
+    steps = episode.pop("steps", None)
+    if steps is not None:
+        append_record(out / KEYFRAME_LOG, {k: episode[k] for k in ("task", "method", "perturbation", "seed")}
+                      | {"steps": steps})
+    append_episode(out / "episodes.jsonl", episode)
 
 
 read_episodes = read_records  # one finished episode per line
+KEYFRAME_LOG = "keyframes.jsonl"  # per episode: every keyframe's actions, the expert's and the policy's own log
 append_episode = append_record
 
 
@@ -285,7 +296,7 @@ def run_bench(cfg: BenchConfig, command: str | None = None) -> Path:
     if done:
         print(f"[bench] resuming: {len(done)} episodes already recorded, {len(todo)} to go")
     run_jobs(run_bench_episode, todo, cfg.workers, desc="bench episodes", chunksize=1, executor=cfg.executor,
-             on_result=lambda episode: append_episode(log, episode))
+             on_result=lambda episode: record_episode(out, episode))
 
     wanted = {(j.task, j.method, j.perturbation, j.seed) for j in jobs}
     episodes = [e for e in read_episodes(log) if _key(e) in wanted]

@@ -101,6 +101,12 @@ class MemoryBank:
         """The most similar stored execution, or None when the bank is empty or the best similarity is below
         the confidence threshold. ``exclude`` skips entries by index (a training demo must not retrieve
         itself: the reference would be the answer)."""
+        found = self.nearest(query, exclude)
+        return found if found is not None and found.similarity >= self.threshold else None
+
+    def nearest(self, query: np.ndarray, exclude: frozenset[int] | set[int] = frozenset()) -> Retrieval | None:
+        """The most similar stored execution whatever its similarity (None for an empty bank): what ``search``
+        would return below the threshold too, to log how close the nearest entry was."""
         query = np.asarray(query, dtype=np.float32).reshape(1, -1)
         if query.shape[1] != self.dim:
             raise ValueError(f"query has {query.shape[1]} values; this bank's keys have {self.dim}")
@@ -111,8 +117,6 @@ class MemoryBank:
         for best, score in zip(index[0].tolist(), similarity[0].tolist()):
             if best < 0 or best in exclude:
                 continue
-            if score < self.threshold:
-                return None
             return Retrieval(best, self.entries[best], float(score), self.trajectories[best])
         return None
 

@@ -45,17 +45,30 @@ class BimanualShift:
         self._retrieved = False
         self._key: np.ndarray | None = None
         self._last_action: dict[str, np.ndarray] = {}  # per arm, what a hold repeats
+        self._nearest_similarity: float | None = None
+        self._log: list[dict] = []
 
     def reset(self) -> None:
         self.retrieval, self._retrieved, self._key = None, False, None
-        self._last_action = {}
+        self._last_action, self._nearest_similarity, self._log = {}, None, []
 
     def _retrieve(self, steps: dict, text: torch.Tensor, arms: list[str]) -> None:
         """Once per episode, on its first observation: the most similar stored execution, if confident."""
         if self.memory is not None and not self._retrieved:
             self._key = episode_key(text[0].numpy(), [steps[a].prior.features[0].numpy() for a in arms])
-            self.retrieval = self.memory.search(self._key)
+            nearest = self.memory.nearest(self._key)
+            self._nearest_similarity = None if nearest is None else nearest.similarity
+            self.retrieval = nearest if nearest is not None and nearest.similarity >= self.memory.threshold else None
             self._retrieved = True
+
+    def keyframe_log(self) -> dict:
+        """The last keyframe's decisions, per arm: the frozen prior's world-frame action (position, quaternion,
+        open probability), the final action, the gripper's open probability after the residual and whether the
+        arm held; and the episode's retrieval: the nearest stored execution's similarity and whether it passed
+        the threshold (fired)."""
+        return {"arms": self._log, "retrieval": None if self.memory is None else {
+            "similarity": self._nearest_similarity, "fired": self.retrieval is not None,
+            "entry": None if self.retrieval is None else self.retrieval.index}}
 
     @torch.no_grad()
     def decide(self, obs: KeyframeObservation) -> list[ArmDecision]:
@@ -81,6 +94,7 @@ class BimanualShift:
             action, held = self.final_action(arm, s, out)
             self._last_action[arm] = action
             decisions.append(ArmDecision(arm, s, inputs[0], action, held))
+        self._log = [decision_log(d) for d in decisions]
         return decisions
 
     def final_action(self, arm: str, step: ArmStep, out: dict[str, torch.Tensor]) -> tuple[np.ndarray, bool]:
@@ -116,6 +130,22 @@ class ArmDecision:
     inputs: torch.Tensor  # the Manager's input row
     action: np.ndarray  # (9,) the world-frame action sent to the env
     held: bool = False  # the residual's hold kept this arm where its last action put it
+
+
+def prior_world_action(step: ArmStep) -> np.ndarray:
+    """The frozen prior's own action for one arm as a world-frame row (what the arm would do without residual)."""
+    p = step.prior
+    return world_action(step.frame, p.position[0].numpy(), p.quat[0].numpy(), float(p.gripper_open[0]),
+                        float(p.ignore_collisions[0]))
+
+
+def decision_log(d: ArmDecision) -> dict:
+    """One arm's keyframe log entry (plain JSON values)."""
+    prior = prior_world_action(d.step)
+    return {"arm": d.arm, "prior": np.round(prior[:7], 4).tolist(),
+            "prior_gripper_open": round(float(d.step.prior.gripper_open[0]), 4),
+            "final": np.round(d.action[:7], 4).tolist(), "gripper": float(d.action[7]), "held": d.held,
+            "residual_cm": round(100 * float(np.linalg.norm(d.action[:3] - prior[:3])), 2)}
 
 
 def save_residual(directory: str | Path, residual: ResidualPolicy, extra: dict[str, Any],

@@ -29,7 +29,7 @@ class FrozenPriorPerArm:
                                                   use_projection=use_projection), name)
 
     def reset(self) -> None:
-        pass
+        self._log: list[dict] = []
 
     def act(self, obs: KeyframeObservation) -> np.ndarray:
         steps = self.prior_step.run(obs)
@@ -38,4 +38,11 @@ class FrozenPriorPerArm:
             p = steps[arm].prior
             rows.append(world_action(steps[arm].frame, p.position[0].numpy(), p.quat[0].numpy(),
                                      float(p.gripper_open[0]), float(p.ignore_collisions[0])))
+        self._log = [{"arm": arm, "prior": np.round(row[:7], 4).tolist(),
+                      "prior_gripper_open": round(float(steps[arm].prior.gripper_open[0]), 4)}
+                     for arm, row in zip(obs.scene.arm_names, rows)]
         return np.stack(rows)
+
+    def keyframe_log(self) -> dict:
+        """Per arm the prior's world-frame action: here it is also the executed one."""
+        return {"arms": getattr(self, "_log", [])}

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from tqdm import tqdm
@@ -30,6 +30,25 @@ class EpisodeRecord:
     instruction: str
     frames: list[np.ndarray] = field(default_factory=list, repr=False)
     stages_done: int = 0  # leading stages of a multi-stage task reached (``Task.stage_names``)
+    # One entry per keyframe (``keyframe_row``): the executed action, the scripted expert's action at the same
+    # index on this seed, the stages reached, and what the policy logs itself (``KeyframeLogging``).
+    steps: list[dict[str, Any]] = field(default_factory=list, repr=False)
+
+
+def _rounded(rows: np.ndarray) -> list[list[float]]:
+    return np.round(np.asarray(rows, np.float64), 4).tolist()
+
+
+def keyframe_row(k: int, executed: np.ndarray, expert: np.ndarray | None, stages_done: int, policy: Policy
+                 ) -> dict[str, Any]:
+    """A keyframe's log entry: the (arms, 9) world rows executed and the expert's at the same index (None past
+    the expert's last keyframe), the stages reached after it, and the policy's own log where it keeps one."""
+    row: dict[str, Any] = {"keyframe": k, "executed": _rounded(executed),
+                           "expert": None if expert is None else _rounded(expert), "stages_done": stages_done}
+    log = getattr(policy, "keyframe_log", None)
+    if callable(log):
+        row["policy"] = log()
+    return row
 
 
 def episode_budget(env: ManipulationEnv, seed: int, cap: int = 0) -> int:
@@ -49,20 +68,23 @@ def rollout(env: ManipulationEnv, policy: Policy, seed: int, max_keyframes: int,
     let the expert take over straying arms)."""
     obs, _ = env.reset(seed=seed)
     scene = scene_of_env(env)
+    # the scripted expert's plan from this initial state: what each keyframe is compared with in the log
+    plan = [env.action_from_keyframe(kf) for kf in env.expert_keyframes()]
     policy.reset()
     frames = [obs["cameras"][record_camera]["rgb"]] if record_camera else []
-    success, stages_done = False, 0
+    success, stages_done, steps = False, 0, []
     for k in range(max_keyframes):
         frame = KeyframeObservation.from_env(obs, scene)
         action = act(k, frame) if act is not None else policy.act(frame)
         obs, _, success, truncated, info = env.step(action)
         stages_done = int(info["stages_done"])
+        steps.append(keyframe_row(k, action, plan[k] if k < len(plan) else None, stages_done, policy))
         if record_camera:
             frames.append(obs["cameras"][record_camera]["rgb"])
         if success or truncated:
             break
     return EpisodeRecord(policy.name, env.task.name, seed, bool(success), env.keyframe_index,
-                         env.task.instruction(), frames, stages_done)
+                         env.task.instruction(), frames, stages_done, steps)
 
 
 def evaluate(env: ManipulationEnv, policy: Policy, seeds: list[int], max_keyframes: int = 0,

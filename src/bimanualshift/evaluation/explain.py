@@ -1,0 +1,114 @@
+"""Where each method's failures happen, from a bench folder's per-keyframe log (`bimanualshift explain`).
+
+Every evaluated episode's keyframes are logged with the scripted expert's action at the same index on the same
+seed (``rollout.keyframe_row``). A failed episode is summarised by the stage it reached and its first divergence:
+the first keyframe at which an arm's executed action strays from the expert's (the refinement's tolerances:
+3 cm, 20 degrees, or the other gripper state), and which arm it was.
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from bimanualshift.core.arms import ARM_NAMES_BIMANUAL
+from bimanualshift.evaluation.bench import KEYFRAME_LOG
+from bimanualshift.utils.jsonl import read_records
+
+TOLERANCE_M, TOLERANCE_DEG = 0.03, 20.0
+
+
+@dataclass(frozen=True)
+class Divergence:
+    keyframe: int
+    arm: str  # an arm's name, or "-" when the policy ran past the expert's plan without straying before
+    what: str  # "position / rotation / gripper", or "past the expert's plan"
+
+
+def first_divergence(steps: list[dict[str, Any]], arms: tuple[str, ...] = ARM_NAMES_BIMANUAL) -> Divergence | None:
+    """The first keyframe at which an arm's executed action strays from the expert's at the same index."""
+    from bimanualshift.training.refine import strays  # torch and the simulator: only when explaining
+
+    for row in steps:
+        if row["expert"] is None:
+            return Divergence(row["keyframe"], "-", "past the expert's plan")
+        executed, expert = np.asarray(row["executed"]), np.asarray(row["expert"])
+        for i, (mine, theirs) in enumerate(zip(executed, expert)):
+            if strays(mine, theirs, TOLERANCE_M, TOLERANCE_DEG):
+                what = [name for name, off in (
+                    ("position", np.linalg.norm(mine[:3] - theirs[:3]) > TOLERANCE_M),
+                    ("gripper", (mine[7] > 0.5) != (theirs[7] > 0.5))) if off] or ["rotation"]
+                return Divergence(row["keyframe"], arms[i] if i < len(arms) else str(i), " + ".join(what))
+    return None
+
+
+def _retrieval(steps: list[dict[str, Any]]) -> dict[str, Any] | None:
+    for row in steps:
+        found = (row.get("policy") or {}).get("retrieval")
+        if found is not None:
+            return found
+    return None
+
+
+def explain_rows(folder: str | Path, task: str, methods: list[str] | None = None) -> list[dict[str, Any]]:
+    """One row per method of ``task`` in bench folder ``folder``: episodes, failures, the stages failures reached,
+    where they first diverged (keyframe, arm), holds, and the retrieval's firing rate and mean similarity."""
+    folder = Path(folder)
+    log = folder / KEYFRAME_LOG
+    if not log.is_file():
+        raise FileNotFoundError(f"{folder} has no {KEYFRAME_LOG}: it was benchmarked before per-keyframe logs "
+                                "existed; re-run its bench command (finished episodes are not redone, so delete "
+                                "episodes.jsonl to log them)")
+    episodes = {(e["task"], e["method"], e.get("perturbation", "none"), e["seed"]): e
+                for e in read_records(folder / "episodes.jsonl")}
+    logs = {(r["task"], r["method"], r.get("perturbation", "none"), r["seed"]): r["steps"] for r in read_records(log)}
+    keys = [k for k in episodes if k[0] == task and k in logs and (not methods or k[1] in methods)]
+    if not keys:
+        known = sorted({k[0] for k in logs})
+        raise ValueError(f"no logged episodes of {task!r} in {folder}; logged tasks: {known}")
+    rows = []
+    for method in dict.fromkeys(k[1] for k in keys):
+        mine = [k for k in keys if k[1] == method]
+        failed = [k for k in mine if not episodes[k]["success"]]
+        divergences = {k: first_divergence(logs[k]) for k in failed}
+        retrievals = [r for r in (_retrieval(logs[k]) for k in mine) if r is not None]
+        held = sum(a.get("held", False) for k in mine for row in logs[k] for a in (row.get("policy") or {}).get(
+            "arms", []))
+        rows.append({
+            "method": method, "episodes": len(mine), "failures": len(failed),
+            "failed_at_stage": dict(sorted(Counter(episodes[k].get("stages_done", 0) for k in failed).items())),
+            "first_divergence": dict(Counter(f"k{d.keyframe} {d.arm} ({d.what})" if d else "never (too slow)"
+                                             for d in divergences.values()).most_common()),
+            "failed_episodes": [{"seed": k[3], "stages_done": episodes[k].get("stages_done", 0),
+                          "keyframes": episodes[k]["keyframes"],
+                          "first_divergence": None if d is None else vars(d)} for k, d in divergences.items()],
+            "held_arm_keyframes": held,
+            "retrieval_fired": (round(float(np.mean([r["fired"] for r in retrievals])), 3) if retrievals else None),
+            "retrieval_similarity": (round(float(np.mean([r["similarity"] for r in retrievals
+                                                          if r["similarity"] is not None])), 3)
+                                     if retrievals else None),
+        })
+    return rows
+
+
+def explain_text(rows: list[dict[str, Any]], task: str) -> str:
+    """The rows as a readable report."""
+    lines = [f"# where failures happen: {task}", ""]
+    for r in rows:
+        lines.append(f"## {r['method']}: {r['failures']} of {r['episodes']} episodes failed")
+        if r["failures"]:
+            stages = ", ".join(f"stage {s}: {n}" for s, n in r["failed_at_stage"].items())
+            lines.append(f"  stages reached by the failures: {stages}")
+            lines.append("  first divergence from the expert (keyframe, arm, what):")
+            lines += [f"    {n:3d} x {where}" for where, n in r["first_divergence"].items()]
+        if r["held_arm_keyframes"]:
+            lines.append(f"  keyframes with an arm held: {r['held_arm_keyframes']}")
+        if r["retrieval_fired"] is not None:
+            lines.append(f"  retrieval fired in {100 * r['retrieval_fired']:.0f} % of episodes "
+                         f"(mean nearest similarity {r['retrieval_similarity']})")
+        lines.append("")
+    return "\n".join(lines)

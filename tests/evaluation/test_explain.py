@@ -1,0 +1,49 @@
+"""`bimanualshift explain`: a failed episode's first divergence from the expert, per arm."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from bimanualshift.evaluation.explain import Divergence, explain_rows, explain_text, first_divergence
+
+
+def _row(x: float, gripper: float = 1.0) -> list[float]:
+    return [x, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, gripper, 0.0]
+
+
+def _step(k: int, executed: list, expert: list | None, stages: int = 0) -> dict:
+    return {"keyframe": k, "executed": executed, "expert": expert, "stages_done": stages}
+
+
+def test_first_divergence_names_the_keyframe_the_arm_and_what_strayed() -> None:
+    steps = [_step(0, [_row(0.5), _row(0.2)], [_row(0.51), _row(0.2)]),  # within 3 cm
+             _step(1, [_row(0.5), _row(0.2, gripper=0.0)], [_row(0.5), _row(0.2)]),
+             _step(2, [_row(0.9), _row(0.2)], [_row(0.5), _row(0.2)])]
+    assert first_divergence(steps) == Divergence(1, "right", "gripper")
+    assert first_divergence(steps[2:]) == Divergence(2, "left", "position")
+    assert first_divergence(steps[:1]) is None  # followed the expert throughout (and failed anyway: too slow)
+    assert first_divergence([_step(5, [_row(0.5)] * 2, None)]) == Divergence(5, "-", "past the expert's plan")
+
+
+def test_explain_summarises_failures_per_method(tmp_path: Path) -> None:
+    episodes = [{"task": "t", "method": "m", "seed": s, "success": s == 0, "keyframes": 3, "stages_done": s % 2}
+                for s in range(3)]
+    good = [_step(0, [_row(0.5), _row(0.2)], [_row(0.5), _row(0.2)])]
+    bad = good + [_step(1, [_row(0.9), _row(0.2)], [_row(0.5), _row(0.2)])]
+    logs = [{"task": "t", "method": "m", "seed": s, "steps": steps} for s, steps in ((0, good), (1, bad), (2, good))]
+    (tmp_path / "episodes.jsonl").write_text("".join(json.dumps(e) + "\n" for e in episodes))
+    (tmp_path / "keyframes.jsonl").write_text("".join(json.dumps(r) + "\n" for r in logs))
+    (row,) = explain_rows(tmp_path, "t")
+    assert row["failures"] == 2 and row["failed_at_stage"] == {0: 1, 1: 1}
+    assert row["first_divergence"] == {"k1 left (position)": 1, "never (too slow)": 1}
+    assert "2 of 3 episodes failed" in explain_text([row], "t")
+    assert np.isclose(sum(row["first_divergence"].values()), row["failures"])
+    with pytest.raises(ValueError, match="no logged episodes of 'u'"):
+        explain_rows(tmp_path, "u")
+    (tmp_path / "keyframes.jsonl").unlink()
+    with pytest.raises(FileNotFoundError, match="re-run its bench command"):
+        explain_rows(tmp_path, "t")
