@@ -32,6 +32,7 @@ class MethodSpec:
     continual: bool = False
     steps: int = DEFAULT_TRAIN_STEPS  # its default training steps
     config: Any = None  # its default typed training config (a dataclass the request's overrides are applied to)
+    refine: bool = False  # training ends with refinement on training scenes (``refine_*`` request overrides)
 
 
 METHODS: dict[str, MethodSpec] = {}
@@ -50,21 +51,41 @@ def get_method(name: str) -> MethodSpec:
     return METHODS[name]
 
 
-def _residual_method(name: str, description: str, **switches: Any) -> MethodSpec:
-    """BimanualShift trained with ``switches`` (TrainConfig fields) on top of the request."""
+# Refinement inside the benchmark (Eq. 10-11, 13): rollouts on this many training scenes after the demos' own
+# (train-split seeds, never validation or test), the expert correcting failures; request overrides
+# ``refine_episodes`` / ``refine_steps`` change them.
+REFINE_EPISODES = 20
+REFINE_FOLDER = "refine"  # under the method's run directory: its rollouts, checkpoints and summary.json
+
+
+def _finished(run: Path) -> Path | None:
+    """``run``'s best checkpoint when an earlier (interrupted) benchmark run finished it, else None."""
+    best = run / "best"
+    return best if (run / "summary.json").is_file() and (best / "config.json").is_file() else None
+
+
+def _residual_method(name: str, description: str, refine: bool = True, **switches: Any) -> MethodSpec:
+    """BimanualShift trained with ``switches`` (TrainConfig fields) on top of the request, then (``refine``)
+    refined on training scenes: the method as the paper runs it."""
 
     def train(request: TrainRequest) -> Path:
-        from bimanualshift.training.configs import TrainConfig
+        from bimanualshift.training.configs import RefineConfig, TrainConfig
+        from bimanualshift.training.refine import refine as run_refinement
         from bimanualshift.training.residual_trainer import train_residual
         from bimanualshift.utils.config_files import config_from_flat
 
+        own = {k: v for k, v in request.overrides.items() if not k.startswith("refine_")}
         cfg = config_from_flat(TrainConfig, task=request.task, prior=request.prior, data=request.data,
                                validation_data=request.validation_data, out=request.out, demos=request.demos,
-                               steps=request.steps, seed=request.seed, **{**switches, **request.overrides})
-        best = Path(request.out) / "best"
-        if (Path(request.out) / "summary.json").is_file() and (best / "config.json").is_file():
-            return best  # trained by an earlier (interrupted) benchmark run
-        return train_residual(cfg)
+                               steps=request.steps, seed=request.seed, **{**switches, **own})
+        best = _finished(Path(request.out)) or train_residual(cfg)
+        if not refine:
+            return best
+        refined = Path(request.out) / REFINE_FOLDER
+        return _finished(refined) or run_refinement(RefineConfig(
+            checkpoint=str(best), out=str(refined), start=request.demos, seed=request.seed,
+            episodes=int(request.overrides.get("refine_episodes", REFINE_EPISODES)),
+            steps=int(request.overrides.get("refine_steps", RefineConfig.steps))))
 
     def load(checkpoint: Path | None, request: TrainRequest) -> Policy:
         from bimanualshift.methods.bimanualshift import load_bimanualshift
@@ -73,7 +94,7 @@ def _residual_method(name: str, description: str, **switches: Any) -> MethodSpec
         policy.name = name
         return policy
 
-    return MethodSpec(name, description, train, load, continual=True, steps=RESIDUAL_STEPS)
+    return MethodSpec(name, description, train, load, continual=True, steps=RESIDUAL_STEPS, refine=refine)
 
 
 def _frozen_prior_method(name: str, description: str, use_projection: bool) -> MethodSpec:
@@ -88,7 +109,13 @@ def _frozen_prior_method(name: str, description: str, use_projection: bool) -> M
 
 
 register_method(_residual_method(
-    "bimanualshift", "projection + residual skill modulation + retrieval (the full method)", retrieval=True))
+    "bimanualshift", "projection + residual skill modulation + retrieval, refined on training scenes (the full "
+    "method)", retrieval=True))
+register_method(_residual_method(
+    "no_refinement", "ablation: the full method before refinement (L_BC only)", refine=False, retrieval=True))
+register_method(_residual_method(
+    "paper_literal", "ablation: the residual moves translation and rotation only (Eq. 4 as written: no gripper "
+    "residual, no hold)", retrieval=True, paper_literal=True))
 register_method(_residual_method(
     "no_projection", "ablation: the prior sees the global scene", retrieval=True, use_projection=False))
 register_method(_frozen_prior_method(

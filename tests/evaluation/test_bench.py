@@ -75,8 +75,12 @@ def test_bench_runs_resumes_and_reports(demo_root: Path, tmp_path: Path) -> None
     cfg = BenchConfig(tasks=["push_two_buttons"], methods=["bimanualshift", "no_residual"], demos=2,
                       validation_demos=1, episodes=2, prior=str(prior), steps=2, workers=1,
                       data=str(tmp_path / "data"), runs=str(tmp_path / "runs"), out=str(tmp_path / "out"), videos=1,
-                      max_keyframes=1)
+                      max_keyframes=1, refine_episodes=1)
     summary = run_bench(cfg, command="test")
+    # the full method is refined before it is evaluated: its rollouts and corrections are recorded per task
+    refined = json.loads(summary.read_text())["refinement"]
+    assert set(refined) == {"push_two_buttons/bimanualshift"} and refined["push_two_buttons/bimanualshift"][
+        "scenes"] == 1
     log = tmp_path / "out" / "episodes.jsonl"
     first = read_episodes(log)
     # every episode's keyframes are logged beside it: executed and expert actions, and the policy's own log
@@ -186,3 +190,21 @@ def test_an_unknown_executor_is_refused_before_any_training(tmp_path: Path) -> N
         run_bench(BenchConfig(tasks=["push_two_buttons"], executor="rya", out=str(tmp_path / "out"),
                               runs=str(tmp_path / "runs"), data=str(tmp_path / "data")))
     assert not (tmp_path / "runs").exists()
+
+
+def test_every_method_of_the_paper_table_gets_its_own_colour() -> None:
+    from bimanualshift.evaluation.plots import label_colours
+    from bimanualshift.evaluation.studies import ABLATIONS, BASELINES
+
+    methods = list(dict.fromkeys(BASELINES + ABLATIONS + ["frozen_prior_per_arm"]))
+    assert len(methods) >= 13
+    rows = [{"task": "lift_ball", "method": m} for m in methods]
+    colours = label_colours(rows)
+    assert len(set(colours.values())) == len(methods)  # (11 methods once shared a 10-colour cycle)
+    assert colours["bimanualshift"] == label_colours(rows[::-1])["bimanualshift"]  # stable, whatever the row order
+
+
+def test_refined_methods_are_the_full_method_and_its_ablations_but_no_refinement() -> None:
+    refined = {name for name, spec in METHODS.items() if spec.refine}
+    assert {"bimanualshift", "no_projection", "no_retrieval", "unstructured", "paper_literal"} <= refined
+    assert "no_refinement" not in refined and "no_residual" not in refined and "peract_lf" not in refined

@@ -87,7 +87,7 @@ def test_long_horizon_continues_each_task_from_the_one_before(tmp_path: object) 
     (earlier / "bimanualshift").mkdir(parents=True)
     cfg = replace(runs[2], continue_from=str(earlier))
     assert _request(cfg, "buttons_then_lift_ball", "bimanualshift").overrides == {
-        "init_from": str(earlier / "bimanualshift")}
+        "init_from": str(earlier / "bimanualshift"), "refine_episodes": cfg.refine_episodes}
     assert _request(cfg, "buttons_then_lift_ball", "no_residual").overrides == {}  # trains nothing
     with pytest.raises(FileNotFoundError, match="peract_lf has no earlier run"):
         _request(cfg, "buttons_then_lift_ball", "peract_lf")

@@ -23,15 +23,15 @@ from bimanualshift.data.seeds import split_seeds
 from bimanualshift.evaluation.plots import draw_plots
 from bimanualshift.evaluation.stats import SuccessRate, SuccessRow
 from bimanualshift.evaluation.tables import bench_table, stage_table
-from bimanualshift.registry import METHODS, TrainRequest, get_method
+from bimanualshift.registry import METHODS, REFINE_EPISODES, REFINE_FOLDER, TrainRequest, get_method
 from bimanualshift.rollout.loop import KEYFRAME_BUDGET
 from bimanualshift.utils.io import atomic_write_json, atomic_write_text
 from bimanualshift.utils.jsonl import append_record, read_records
 from bimanualshift.utils.process_cache import cached
 from bimanualshift.utils.workers import EXECUTORS, run_jobs
 
-DEFAULT_METHODS = ["bimanualshift", "no_projection", "no_residual", "no_retrieval", "unstructured",
-                   "frozen_prior_per_arm", "scratch_voxel"]
+DEFAULT_METHODS = ["bimanualshift", "no_projection", "no_residual", "no_retrieval", "no_refinement", "unstructured",
+                   "paper_literal", "frozen_prior_per_arm", "scratch_voxel"]
 
 
 @dataclass
@@ -56,6 +56,9 @@ class BenchConfig:
     # starts from its own run there (its weights and, for BimanualShift, its memory bank).
     continue_from: str = ""
     seed: int = 0
+    # refined methods (bimanualshift and its ablations but no_refinement) roll out on this many training scenes
+    # after the demos' own, the expert correcting their failures, before they are evaluated
+    refine_episodes: int = REFINE_EPISODES
 
 
 @dataclass(frozen=True)
@@ -81,6 +84,8 @@ def _request(cfg: BenchConfig, task: str, method: str, training: bool = True) ->
             raise FileNotFoundError(f"continue_from={cfg.continue_from!r}: {method} has no earlier run at {earlier}; "
                                     "run the benchmark on the earlier task first")
         overrides["init_from"] = str(earlier)
+    if get_method(method).refine:
+        overrides["refine_episodes"] = cfg.refine_episodes
     return TrainRequest(task=task, data=f"{cfg.data}/train", validation_data=f"{cfg.data}/validation",
                         demos=cfg.demos, prior=cfg.prior, out=f"{cfg.runs}/{task}/{method}",
                         steps=int(cfg.method_steps.get(method) or cfg.steps or get_method(method).steps),
@@ -92,7 +97,7 @@ def _request(cfg: BenchConfig, task: str, method: str, training: bool = True) ->
 # of one setting and a training run the weights of one request: reusing either under other settings would put,
 # say, 30-demo episodes in a 100-demo table without a word.
 EPISODE_SETTINGS = ("demos", "validation_demos", "prior", "steps", "method_steps", "max_keyframes", "seed",
-                    "continue_from")
+                    "continue_from", "refine_episodes")
 SETTINGS_FILE = "bench_settings.json"
 REQUEST_FILE = "bench_request.json"
 
@@ -127,6 +132,23 @@ def check_training_run(request: TrainRequest) -> None:
     settings = {k: v for k, v in asdict(request).items() if k not in ("data", "validation_data", "out")}
     _check_same(Path(request.out) / REQUEST_FILE, settings, None, "a training run",
                 "give this run its own --runs, or delete that folder to retrain")
+
+
+REFINEMENT_FIELDS = ("scenes", "policy_successes", "corrected_successes", "correction_samples",
+                     "inserted_into_memory", "memory_entries")
+
+
+def refinement_records(cfg: BenchConfig, tasks: list[str]) -> dict[str, dict[str, Any]]:
+    """Per "task/method" that was refined: its rollouts on training scenes, the failures the expert corrected into
+    successes, the correction samples, and the memory entries added (from the run's refine/summary.json)."""
+    out = {}
+    for task in tasks:
+        for method in cfg.methods:
+            path = Path(cfg.runs) / task / method / REFINE_FOLDER / "summary.json"
+            if path.is_file():
+                summary = json.loads(path.read_text())
+                out[f"{task}/{method}"] = {k: summary.get(k) for k in REFINEMENT_FIELDS}
+    return out
 
 
 def run_bench_episode(job: BenchJob) -> dict[str, Any]:
@@ -307,6 +329,7 @@ def run_bench(cfg: BenchConfig, command: str | None = None) -> Path:
         draw_plots(out, rows, title)
         atomic_write_text(out / "table.md", bench_table(rows) + "\n" + stage_table(rows))
     write_result(out / "summary.json", command, seeds, started, rows, bench=True, config=asdict(cfg),
+                 refinement=refinement_records(cfg, tasks),
                  methods={m: METHODS[m].description for m in cfg.methods},
                  notes=f"prior {cfg.prior}; episodes stop at {KEYFRAME_BUDGET}x the expert's keyframes on the "
                        "same seed; wall time covers this invocation only (a resumed run reuses earlier work)")

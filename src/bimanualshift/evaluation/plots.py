@@ -9,6 +9,23 @@ from typing import Any
 from bimanualshift.evaluation.tables import row_label
 
 
+def label_colours(rows: list[dict[str, Any]]) -> dict[str, tuple[float, ...]]:
+    """One distinct colour per row label (method, with its demos or perturbation where they vary): labels ordered
+    by their method's place in the registry, so a method keeps its colour across plots of the same methods, and
+    the full method always comes first (tab20's strongest blue)."""
+    import matplotlib
+
+    from bimanualshift.registry import METHODS
+
+    order = {name: i for i, name in enumerate(METHODS)}
+    labels = sorted(dict.fromkeys(row_label(r) for r in rows),
+                    key=lambda label: (order.get(next(r["method"] for r in rows if row_label(r) == label), 99), label))
+    palette = matplotlib.colormaps["tab20"].colors
+    if len(labels) > len(palette):  # more labels than tab20 holds: fall back to evenly spaced hues
+        palette = [matplotlib.colormaps["hsv"](i / len(labels)) for i in range(len(labels))]
+    return {label: tuple(palette[i]) for i, label in enumerate(labels)}
+
+
 def bar_plot(path: Path, rows: list[dict[str, Any]], title: str) -> Path:
     import matplotlib
 
@@ -21,6 +38,7 @@ def bar_plot(path: Path, rows: list[dict[str, Any]], title: str) -> Path:
     methods = list(dict.fromkeys(row_label(r) for r in rows))
     cell = {(row_label(r), r["task"]): r for r in rows}
     width = 0.8 / len(methods)
+    colours = label_colours(rows)
     fig, ax = plt.subplots(figsize=(max(6.0, 1.6 * len(tasks)), 3.8))
     for i, method in enumerate(methods):
         xs, ys, err = [], [], [[], []]
@@ -32,7 +50,7 @@ def bar_plot(path: Path, rows: list[dict[str, Any]], title: str) -> Path:
             ys.append(100 * r["success"])
             err[0].append(100 * (r["success"] - r["ci95"][0]))
             err[1].append(100 * (r["ci95"][1] - r["success"]))
-        ax.bar(xs, ys, width, yerr=err, capsize=2, label=method)
+        ax.bar(xs, ys, width, yerr=err, capsize=2, label=method, color=colours[method])
     ax.set_xticks(range(len(tasks)), [t.replace("_", "\n") for t in tasks], fontsize=8)
     ax.set_ylabel("success (%)")
     ax.set_ylim(0, 100)
@@ -59,6 +77,7 @@ def stage_plot(path: Path, rows: list[dict[str, Any]], title: str) -> Path | Non
     from bimanualshift.utils.io import atomic_writer
 
     tasks = list(dict.fromkeys(r["task"] for r in staged))
+    colours = label_colours(staged)
     fig, axes = plt.subplots(1, len(tasks), figsize=(5.5 * len(tasks), 3.8), squeeze=False)
     for ax, task in zip(axes[0], tasks):
         mine = [r for r in staged if r["task"] == task]
@@ -68,8 +87,9 @@ def stage_plot(path: Path, rows: list[dict[str, Any]], title: str) -> Path | Non
             ys = [100 * s["success"] for s in r["stages"]]
             low = [100 * s["ci95"][0] for s in r["stages"]]
             high = [100 * s["ci95"][1] for s in r["stages"]]
-            (line,) = ax.plot(xs, ys, marker="o", label=row_label(r))
-            ax.fill_between(xs, low, high, alpha=0.12, color=line.get_color())
+            colour = colours[row_label(r)]
+            ax.plot(xs, ys, marker="o", label=row_label(r), color=colour)
+            ax.fill_between(xs, low, high, alpha=0.12, color=colour)
         ax.set_xticks(xs, [n.replace(" ", "\n") for n in names], fontsize=8)
         ax.set_ylim(0, 100)
         ax.set_ylabel("episodes reaching the stage (%)")

@@ -24,7 +24,7 @@ from bimanualshift.sim.perturbations import PRESETS
 from bimanualshift.utils.io import atomic_write_text
 
 BASELINES = ["bimanualshift", "peract_lf", "dp_lf", "scratch_voxel", "scratch_dp", "scratch_act", "anybimanual"]
-ABLATIONS = ["no_projection", "no_residual", "no_retrieval", "unstructured"]
+ABLATIONS = ["no_projection", "no_residual", "no_retrieval", "no_refinement", "unstructured", "paper_literal"]
 FEW_SHOT_TASKS = ["push_two_buttons", "lift_ball", "pick_up_plate"]
 TABLE1_TASKS = ("take_tray_out_of_oven", "straighten_rope", "sweep_to_dustpan", "lift_ball", "push_two_buttons",
                 "pick_up_plate")  # the paper's six RLBench2 tasks (the composite task is the long-horizon study's)
