@@ -12,8 +12,13 @@ def two_arm_samples(episodes: int = 3, keyframes: int = 2) -> tuple[ArmSamples, 
     rows = [(e, k, arm) for e in range(episodes) for k in range(keyframes) for arm in ("left", "right")]
     n = len(rows)
     pos = np.array([[e, k, 0.1 if arm == "left" else 0.2] for e, k, arm in rows], np.float32)
+    # each arm is where its previous keyframe's action put it (at keyframe 0: beside its first target)
+    proprio = np.zeros((n, 9), np.float32)
+    for i, (e, k, arm) in enumerate(rows):
+        proprio[i, :3] = pos[rows.index((e, k - 1, arm))] if k else pos[i] + [0.0, -0.5, 0.0]
+        proprio[i, 6:8] = 1.0  # identity quaternion's w, gripper open
     samples = ArmSamples(
-        voxels=np.zeros((n, 1)), proprio=np.zeros((n, 9)), instructions=["lift the ball"] * n, action_pos=pos,
+        voxels=np.zeros((n, 1)), proprio=proprio, instructions=["lift the ball"] * n, action_pos=pos,
         action_quat=np.tile([0, 0, 0, 1.0], (n, 1)).astype(np.float32), gripper_open=np.ones(n, np.int64),
         ignore_collisions=np.zeros(n, np.int64), episode=np.array([r[0] for r in rows]),
         keyframe=np.array([r[1] for r in rows]), arm=[r[2] for r in rows], other_proprio=np.zeros((n, 8)),
@@ -53,3 +58,25 @@ def test_no_confident_retrieval_gives_a_zero_reference() -> None:
     ref = reference_vector(found, 5, 1, np.full(8, 0.25))
     np.testing.assert_allclose(ref[:3], 0.75)  # stored 1.0 minus the prior's 0.25
     assert ref[8] > 0.99
+
+
+def test_progress_alignment_follows_the_arm_not_the_keyframe_index() -> None:
+    """A stored execution: approach, grasp (close), lift, with the other arm holding still twice. The current
+    episode's arm is slower (stays put one keyframe) and starts a few millimetres off: its aligned step stays
+    with what it has done, where the global index would run ahead."""
+    from bimanualshift.memory.reference import ProgressAlignment
+
+    def row(x: float, z: float, gripper: float) -> list[float]:
+        return [x, 0.0, z, 0.0, 0.0, 0.0, 1.0, gripper]
+
+    arm0 = [row(0.5, 0.10, 1), row(0.5, 0.02, 1), row(0.5, 0.02, 0), row(0.5, 0.20, 0)]
+    arm1 = [row(0.4, 0.3, 1)] * 4  # holds: the same target repeated
+    align = ProgressAlignment(np.stack([arm0, arm1], axis=1))
+    start = np.array([0.3, 0.0, 0.3])
+    # keyframe 0 at the start; 1 has reached the approach; 2 stuck there (a retry); 3 reached the grasp pose; 4
+    # closed; the global index would be 0, 1, 2, 3, 4 -- past the stored execution's end
+    poses = [(start, 1.0), (np.array([0.503, 0, 0.1]), 1.0), (np.array([0.503, 0, 0.1]), 1.0),
+             (np.array([0.5, 0.004, 0.02]), 1.0), (np.array([0.5, 0.004, 0.02]), 0.0)]
+    assert [align.step_of(0, p, g) for p, g in poses] == [0, 1, 1, 2, 3]
+    # the holding arm replays its repeated targets one per keyframe, never skipping ahead
+    assert [align.step_of(1, np.array([0.4, 0.0, 0.3]), 1.0) for _ in range(5)] == [0, 1, 2, 3, 3]

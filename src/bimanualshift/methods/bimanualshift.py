@@ -13,7 +13,7 @@ from bimanualshift.data.frames import KeyframeObservation
 from bimanualshift.encoders.text import DEFAULT_SPEC, TextEncoder, default_text_encoder, make_text_encoder
 from bimanualshift.geometry.frames import compose_rotation
 from bimanualshift.memory.bank import MemoryBank, Retrieval
-from bimanualshift.memory.reference import episode_key, reference_vector
+from bimanualshift.memory.reference import ProgressAlignment, episode_key, reference_vector
 from bimanualshift.methods.prior_step import ArmStep, FrozenPriorStep, world_action
 from bimanualshift.priors.base import UnimanualPrior
 from bimanualshift.residual.checkpoint import (
@@ -47,10 +47,13 @@ class BimanualShift:
         self._last_action: dict[str, np.ndarray] = {}  # per arm, what a hold repeats
         self._nearest_similarity: float | None = None
         self._log: list[dict] = []
+        self.alignment: ProgressAlignment | None = None  # each arm's step in the retrieved execution
+        self._steps: dict[str, int] = {}
 
     def reset(self) -> None:
         self.retrieval, self._retrieved, self._key = None, False, None
         self._last_action, self._nearest_similarity, self._log = {}, None, []
+        self.alignment, self._steps = None, {}
 
     def _retrieve(self, steps: dict, text: torch.Tensor, arms: list[str]) -> None:
         """Once per episode, on its first observation: the most similar stored execution, if confident."""
@@ -59,6 +62,7 @@ class BimanualShift:
             nearest = self.memory.nearest(self._key)
             self._nearest_similarity = None if nearest is None else nearest.similarity
             self.retrieval = nearest if nearest is not None and nearest.similarity >= self.memory.threshold else None
+            self.alignment = ProgressAlignment(self.retrieval.trajectory) if self.retrieval is not None else None
             self._retrieved = True
 
     def keyframe_log(self) -> dict:
@@ -68,7 +72,7 @@ class BimanualShift:
         the threshold (fired)."""
         return {"arms": self._log, "retrieval": None if self.memory is None else {
             "similarity": self._nearest_similarity, "fired": self.retrieval is not None,
-            "entry": None if self.retrieval is None else self.retrieval.index}}
+            "entry": None if self.retrieval is None else self.retrieval.index, "aligned_step": dict(self._steps)}}
 
     @torch.no_grad()
     def decide(self, obs: KeyframeObservation) -> list[ArmDecision]:
@@ -82,7 +86,9 @@ class BimanualShift:
             s = steps[arm]
             reference = None
             if self.memory is not None:
-                reference = torch.as_tensor(reference_vector(self.retrieval, obs.keyframe_index, i,
+                step = self.alignment.step_of(i, s.proprio[:3], float(s.proprio[7])) if self.alignment else 0
+                self._steps[arm] = step
+                reference = torch.as_tensor(reference_vector(self.retrieval, step, i,
                                                              s.prior.base_action()[0].numpy()))[None]
             goal = torch.as_tensor(s.goal)[None] if self.residual.config.goal_dim else None
             inputs = manager_input_rows(

@@ -21,7 +21,7 @@ from bimanualshift.encoders.text import TextEncoder, default_text_encoder, make_
 from bimanualshift.geometry.frames import rotation_difference
 from bimanualshift.geometry.voxels import VoxelGrid
 from bimanualshift.memory.bank import MemoryBank, MemoryEntry
-from bimanualshift.memory.reference import REFERENCE_DIM, episode_key, reference_vector
+from bimanualshift.memory.reference import REFERENCE_DIM, ProgressAlignment, episode_key, reference_vector
 from bimanualshift.methods.bimanualshift import MEMORY_FILE, save_residual
 from bimanualshift.methods.prior_step import FrozenPriorStep
 from bimanualshift.perception.arm_samples import ArmSamples, build_arm_samples
@@ -207,10 +207,15 @@ def retrieved_references(samples: ArmSamples, first_features: torch.Tensor, text
     zero = np.zeros(8, np.float32)  # relative to a zero base: the stored position itself
     out = np.zeros((len(samples), REFERENCE_DIM), np.float32)
     retrieved = torch.zeros(len(samples), dtype=torch.bool)  # without a retrieval the row stays all zeros
-    for i in range(len(samples)):
+    alignments = [ProgressAlignment(f.trajectory) if f is not None else None for f in found]
+    # each arm's aligned step, in keyframe order within its episode (as the policy meets them at inference)
+    for i in sorted(range(len(samples)), key=lambda i: (int(samples.episode[i]), int(samples.keyframe[i]))):
         e = episodes.index(samples.episode[i])
         arms = list(dict.fromkeys(samples.arm[j] for j in np.flatnonzero(samples.episode == samples.episode[i])))
-        out[i] = reference_vector(found[e], int(samples.keyframe[i]), arms.index(samples.arm[i]), zero)
+        arm = arms.index(samples.arm[i])
+        own = samples.proprio[i]
+        step = alignments[e].step_of(arm, own[:3], float(own[7])) if alignments[e] is not None else 0
+        out[i] = reference_vector(found[e], step, arm, zero)
         retrieved[i] = found[e] is not None
     stored = torch.as_tensor(out)
     if motion is not None:
