@@ -52,3 +52,24 @@ def test_history_logs_interval_means_and_validation_details(tmp_path: Path) -> N
     assert rows[1]["total"] == 1.0 and rows[2]["total"] == 4.0  # means of steps 0-2 and 3-5, not the last batch
     assert rows[2]["validation"] == -6 and rows[2]["validation_median_cm"] == 1 / 7
     assert out["best"]["step"] == 6
+
+
+def test_patience_stops_a_run_that_no_longer_improves_and_a_resume_stays_stopped(tmp_path: Path) -> None:
+    model = torch.nn.Linear(1, 1, bias=False)
+    optimizer = torch.optim.SGD(model.parameters(), lr=0.0)
+    values = {0: 5.0, 2: 1.0}  # the best comes at step 2; every later checkpoint is worse
+
+    def step_fn(step: int, gen: torch.Generator) -> dict[str, torch.Tensor]:
+        return {"total": model.weight.sum() * 0}
+
+    def run(steps: int) -> dict:
+        return loop.run_training(tmp_path, model, optimizer, steps, step_fn, seed=0, checkpoint_every=2,
+                                 validate_fn=lambda step: values.get(step, 3.0), patience=3)
+
+    out = run(20)
+    assert out["best"]["step"] == 2 and out["stopped_early_at"] == 8  # 3 checkpoints (4, 6, 8) without a gain
+    assert [r["step"] for r in out["history"]] == [0, 2, 4, 6, 8]
+    again = run(40)
+    assert again["stopped_early_at"] == 8 and [r["step"] for r in again["history"]] == [0, 2, 4, 6, 8]
+    assert loop.run_training(tmp_path / "b", model, optimizer, 6, step_fn, seed=0, checkpoint_every=2,
+                             validate_fn=lambda step: 1.0, patience=0)["stopped_early_at"] is None

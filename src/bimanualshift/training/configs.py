@@ -28,6 +28,9 @@ class OptimConfig:
     seed: int = 0
     schedule: str = "constant"  # constant, or cosine: linear warm-up, then cosine decay to 5 % of lr
     warmup_steps: int = 0  # steps of linear warm-up (cosine only)
+    # Early stopping: end the run once this many checkpoints in a row have not improved on the best validation
+    # value (0: run every step). The best checkpoint is what the run hands on either way.
+    patience: int = 0
 
 
 @dataclass
@@ -145,7 +148,7 @@ class TrainConfig:
     hold_weight: float = 0.01  # weight of the hold logit's cross-entropy in L_BC (not paper-literal)
     dataset: ResidualDataConfig = field(default_factory=ResidualDataConfig)
     model: ResidualModelConfig = field(default_factory=ResidualModelConfig)
-    optim: OptimConfig = field(default_factory=lambda: OptimConfig(steps=RESIDUAL_STEPS, lr=5e-4))
+    optim: OptimConfig = field(default_factory=lambda: OptimConfig(steps=RESIDUAL_STEPS, lr=5e-4, patience=8))
 
 
 @dataclass

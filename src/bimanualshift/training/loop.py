@@ -40,10 +40,14 @@ def run_training(run_dir: str | Path, model: nn.Module, optimizer: torch.optim.O
                  step_fn: StepFn, seed: int, checkpoint_every: int = 100,
                  validate_fn: ValidateFn | None = None, on_best: Callable[[int, float, float], None] | None = None,
                  desc: str = "train", ctx: Distributed | None = None,
-                 lr_factor: Callable[[int], float] | None = None) -> dict[str, Any]:
+                 lr_factor: Callable[[int], float] | None = None, patience: int = 0) -> dict[str, Any]:
     """Train for ``steps``; with ``ctx`` (several ``torchrun`` processes) every rank steps, losses are logged as
     their mean over the ranks, and only rank 0 validates and writes. ``lr_factor(step)`` scales every parameter
-    group's learning rate at each step (a schedule; computed from the step, so resuming continues it)."""
+    group's learning rate at each step (a schedule; computed from the step, so resuming continues it).
+    ``patience`` > 0 (one process only) stops early once that many checkpoints in a row have not improved on the
+    best validation value; a resumed run that had stopped stays stopped."""
+    if patience and ctx is not None and ctx.enabled:
+        raise ValueError("early stopping (patience) runs in one process; use patience 0 under torchrun")
     ctx = ctx or Distributed()
     base_lr = [group["lr"] for group in optimizer.param_groups]
     run_dir = Path(run_dir)
@@ -70,7 +74,13 @@ def run_training(run_dir: str | Path, model: nn.Module, optimizer: torch.optim.O
     # run logs what an uninterrupted one would.
     sums: dict[str, float] = {}
     counted = 0
-    for step in bar:
+
+    def exhausted() -> bool:
+        return bool(patience and validate_fn is not None and best["step"] is not None and history
+                    and history[-1]["step"] - best["step"] >= patience * checkpoint_every)
+
+    stopped_at = history[-1]["step"] if exhausted() else None
+    for step in (() if stopped_at is not None else bar):
         model.train()
         if lr_factor is not None:
             for group, lr in zip(optimizer.param_groups, base_lr):
@@ -104,7 +114,10 @@ def run_training(run_dir: str | Path, model: nn.Module, optimizer: torch.optim.O
             history.append(record)
             save_checkpoint(run_dir, done, model, optimizer, {"history": history, "best": best, "elapsed_s": elapsed})
             atomic_write_json(run_dir / "history.json", {"history": history, "best": best})
+            if exhausted():
+                stopped_at = done
+                break
     ctx.barrier()  # every rank ends with rank 0's last checkpoint on disk
     # Training time over every invocation of this directory (a resumed run's wall time covers only itself).
     training_time_s = history[-1]["elapsed_s"] if history else round(elapsed_before, 1)
-    return {"history": history, "best": best, "training_time_s": training_time_s}
+    return {"history": history, "best": best, "training_time_s": training_time_s, "stopped_early_at": stopped_at}

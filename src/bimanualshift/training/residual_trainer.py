@@ -352,7 +352,7 @@ def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Pat
                       memory)
 
     result = run_training(out, residual, optimizer, optim.steps, step_fn, optim.seed, optim.checkpoint_every,
-                          validate, on_best, desc="train residual")
+                          validate, on_best, desc="train residual", patience=optim.patience)
     if (out / "best" / "model.safetensors").is_file():  # report on the checkpoint the run hands on
         residual.load_state_dict(load_safetensors(out / "best" / "model.safetensors"))
     gate = {}
