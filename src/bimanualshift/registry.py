@@ -194,6 +194,11 @@ register_method(_backbone_method(
     # the benchmark's --prior names the PerAct-style prior the other methods use; DP-LF fine-tunes dp_suite
     LeaderFollowerTrainConfig(lr=1e-4, optimizer="adamw", kind="diffusion", prior="dp_suite"), continual=True))
 register_method(_backbone_method(
+    "rvt_lf", "baseline: RVT-LF, the leader-follower pair fine-tuned from the RVT-style prior (rvt_suite: not "
+    "shipped yet: until it is, give the prior as the prior override) on the bimanual demos",
+    "train_leader_follower", "leader_follower_tuned:RVTLeaderFollowerPolicy",
+    LeaderFollowerTrainConfig(kind="rvt", prior="rvt_suite"), continual=True))
+register_method(_backbone_method(
     "scratch_dp", "baseline: a Diffusion Policy for both arms (point cloud of the global scene, the other arm's pose "
     "and the acting arm's one-hot as extra proprioception) trained from scratch on the bimanual demos only",
     # AdamW as the shipped Diffusion Policy prior was pretrained with

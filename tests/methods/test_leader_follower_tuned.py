@@ -123,3 +123,38 @@ def test_dp_pair_fine_tunes_a_diffusion_prior_and_refuses_a_voxel_one(demo_root:
         env.close()
     with pytest.raises(ValueError, match="fine-tunes a diffusion prior"):
         spec.train(request("wrong", voxel))
+
+
+def test_widened_rvt_follower_starts_as_the_prior_in_both_stages() -> None:
+    cls = PRIORS["rvt"]
+    torch.manual_seed(0)
+    prior = cls(cls.config_class(**prior_model_config("rvt", "debug")))
+    wide = cls(cls.config_class(**{**prior_model_config("rvt", "debug"), "proprio_dim": 16}))
+    widen_from_prior(wide, prior, 8)
+    g = torch.Generator().manual_seed(1)
+    cloud = torch.cat([torch.tensor([0.2, -0.45, -0.15]) + torch.rand(1, 256, 3, generator=g) * torch.tensor(
+        [0.7, 0.9, 0.5]), torch.rand(1, 256, 3, generator=g)], -1)
+    own, text = torch.rand(1, 9, generator=g), torch.randn(1, 384, generator=g)
+    a = prior.predict(cloud, own, text)
+    b = wide.predict(cloud, torch.cat([own[:, :8], torch.randn(1, 8, generator=g), own[:, 8:]], dim=1), text)
+    torch.testing.assert_close(a.coarse_position, b.coarse_position)  # the coarse stage ignores the leader ...
+    torch.testing.assert_close(a.position, b.position)  # ... and so does the fine one
+
+
+def test_rvt_pair_trains_from_an_rvt_prior_and_acts(demo_root: Path, tmp_path: Path) -> None:
+    from tests.training.test_train_resume import pretrain, pretrain_cfg
+
+    prior = pretrain(pretrain_cfg(demo_root, tmp_path / "prior", steps=2, prior="rvt"))
+    request = TrainRequest(task="push_two_buttons", data=str(demo_root / "bimanual"),
+                           validation_data=str(demo_root / "bimanual"), demos=2, prior="peract_suite",
+                           out=str(tmp_path / "lf"), steps=2, overrides={"checkpoint_every": 2, "prior": str(prior)})
+    spec = get_method("rvt_lf")
+    pair = spec.train(request)
+    assert json.loads((pair / "pair.json").read_text())["type"] == "rvt_lf"
+    policy = spec.load(pair, request)
+    assert policy.name == "rvt_lf" and policy.follower.model.config.type == "rvt"
+    env = ManipulationEnv("push_two_buttons", image_size=64)
+    try:
+        assert rollout(env, policy, seed=200_000, max_keyframes=1).keyframes == 1
+    finally:
+        env.close()

@@ -75,6 +75,8 @@ class PriorConfig:
 class UnimanualPrior(nn.Module):
     config_class: ClassVar[type[PriorConfig]]
     proprio_weight: ClassVar[str] = ""  # state-dict key of the proprioception's input layer (for widening)
+    # every proprioception input layer, when there are several (the RVT prior's two stages); default: the one above
+    extra_proprio_weights: ClassVar[tuple[str, ...]] = ()
     # What ``predict``'s first input is: "voxels" (B, 4, S, S, S) occupancy + rgb, or "points" (B, P, 6) the arm's
     # (masked) point cloud, arm-frame xyz and rgb, P = ``config.num_points`` (see ``observation_input``).
     observation: ClassVar[str] = "voxels"

@@ -19,6 +19,6 @@ class BackboneTrainConfig:
 @dataclass(frozen=True)
 class LeaderFollowerTrainConfig(BackboneTrainConfig):
     lr: float = 5e-4
-    kind: str = "peract"  # the prior network the pair is fine-tuned from: peract or diffusion
+    kind: str = "peract"  # the prior network the pair is fine-tuned from: peract, diffusion or rvt
     prior: str = ""  # the prior to fine-tune ("" = the benchmark's --prior)
     init_from: str = ""  # continual learning: an earlier pair's run folder; each network starts from its own weights

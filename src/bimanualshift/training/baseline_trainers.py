@@ -13,12 +13,7 @@ from pathlib import Path
 from bimanualshift.methods.baselines.anybimanual import SPEC as ANYBIMANUAL_SPEC
 from bimanualshift.methods.baselines.from_scratch import ACT_SPEC, DP_SPEC
 from bimanualshift.methods.baselines.from_scratch import SPEC as SCRATCH_VOXEL_SPEC
-from bimanualshift.methods.baselines.leader_follower_tuned import (
-    DP_FOLLOWER_SPEC,
-    DP_LEADER_SPEC,
-    FOLLOWER_SPEC,
-    LEADER_SPEC,
-)
+from bimanualshift.methods.baselines.leader_follower_tuned import PAIR_SPECS
 from bimanualshift.methods.baselines.network_spec import VoxelNetworkSpec
 from bimanualshift.training.baseline_configs import BackboneTrainConfig, LeaderFollowerTrainConfig
 from bimanualshift.training.finetune_backbone import train_voxel_network
@@ -63,11 +58,14 @@ def train_leader_follower(request: TrainRequest, cfg: LeaderFollowerTrainConfig)
             raise FileNotFoundError(f"init_from={cfg.init_from!r}: no leader-follower pair there (pair.json missing)")
         earlier = json.loads(path.read_text())
         starts = {role: replace(request, prior=earlier[role]) for role in starts}
-    specs = (LEADER_SPEC, FOLLOWER_SPEC) if cfg.kind == "peract" else (DP_LEADER_SPEC, DP_FOLLOWER_SPEC)
+    if cfg.kind not in PAIR_SPECS:
+        raise ValueError(f"no leader-follower pair of kind {cfg.kind!r}; choose from {sorted(PAIR_SPECS)}")
+    specs = PAIR_SPECS[cfg.kind]
     leader = train_voxel_network(specs[0], starts["leader"], out / "leader", cfg.size, cfg.lr, cfg.batch_size,
                                  cfg.checkpoint_every, cfg.optimizer)
     follower = train_voxel_network(specs[1], starts["follower"], out / "follower", cfg.size, cfg.lr, cfg.batch_size,
                                    cfg.checkpoint_every, cfg.optimizer)
-    atomic_write_json(out / "pair.json", {"type": f"{'peract' if cfg.kind == 'peract' else 'dp'}_lf",
+    atomic_write_json(out / "pair.json", {"type": {"peract": "peract_lf", "diffusion": "dp_lf"}.get(cfg.kind,
+                                                                                                  f"{cfg.kind}_lf"),
                                           "leader": str(leader), "follower": str(follower)})
     return out

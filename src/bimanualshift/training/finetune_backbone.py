@@ -79,7 +79,8 @@ def train_voxel_network(spec: VoxelNetworkSpec, request: TrainRequest, out: Path
     model = spec.build(prior, spec.extra_dim, size) if spec.build else build_widened(prior, spec.extra_dim, size,
                                                                                      spec.kind)
     grid = VoxelGrid(tuple(model.config.bounds), model.config.voxel_size)
-    builder = ArmObservationBuilder(grid)  # the global scene: no arm-conditioned projection
+    # the global scene, no arm-conditioned projection; voxels or the cloud, as the network reads
+    builder = ArmObservationBuilder(grid, points=model.cloud_points, voxels=model.observation == "voxels")
     train = _batches(spec, paths, builder, model, f"voxelise train ({spec.name})")
     val_paths = list_episodes(request.validation_data, request.task)
     val = _batches(spec, val_paths, builder, model, "voxelise val") if val_paths else train

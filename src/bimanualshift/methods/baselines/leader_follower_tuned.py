@@ -1,5 +1,5 @@
-"""Baselines: PerAct-LF and DP-LF, the leader-follower pair of PerAct² fine-tuned from a single-arm prior
-(the PerAct-style one, or the Diffusion Policy one).
+"""Baselines: PerAct-LF, DP-LF and RVT-LF, the leader-follower pair of PerAct² fine-tuned from a single-arm prior
+(the PerAct-style one, the Diffusion Policy one or the RVT-style one).
 
 Two networks start from the same single-arm checkpoint and are fine-tuned (every weight) on the bimanual demos,
 on the global scene. The right arm leads; the left arm follows and conditions on the leader's action (its
@@ -55,6 +55,10 @@ FOLLOWER_SPEC = VoxelNetworkSpec("lf_follower", arms=(FOLLOWER,), extra_dim=LEAD
 
 DP_LEADER_SPEC = replace(LEADER_SPEC, name="dp_lf_leader", kind="diffusion")
 DP_FOLLOWER_SPEC = replace(FOLLOWER_SPEC, name="dp_lf_follower", kind="diffusion")
+RVT_LEADER_SPEC = replace(LEADER_SPEC, name="rvt_lf_leader", kind="rvt")
+RVT_FOLLOWER_SPEC = replace(FOLLOWER_SPEC, name="rvt_lf_follower", kind="rvt")
+PAIR_SPECS = {"peract": (LEADER_SPEC, FOLLOWER_SPEC), "diffusion": (DP_LEADER_SPEC, DP_FOLLOWER_SPEC),
+              "rvt": (RVT_LEADER_SPEC, RVT_FOLLOWER_SPEC)}
 
 
 class LeaderFollowerPolicy:
@@ -86,3 +90,7 @@ class LeaderFollowerPolicy:
 
 class DiffusionLeaderFollowerPolicy(LeaderFollowerPolicy):
     name = "dp_lf"
+
+
+class RVTLeaderFollowerPolicy(LeaderFollowerPolicy):
+    name = "rvt_lf"

@@ -53,13 +53,14 @@ def widen_from_prior(model: UnimanualPrior, prior: UnimanualPrior, extra_dim: in
     if not key or key != type(model).proprio_weight:
         raise ValueError(f"cannot widen a {type(prior).__name__} into a {type(model).__name__}")
     state = {k: v.clone() for k, v in prior.state_dict().items()}
-    old = state[key]  # (dim, OWN_PROPRIO [+ extras] + 1)
-    width = model.state_dict()[key].shape[1]
-    if old.shape[1] != width:  # a single-arm prior: widen; an earlier network of this kind already fits
-        new = torch.zeros(old.shape[0], width)
-        new[:, :OWN_PROPRIO] = old[:, :OWN_PROPRIO]
-        new[:, -1] = old[:, -1]  # the keyframe fraction
-        state[key] = new
+    for name in (key, *type(prior).extra_proprio_weights):
+        old = state[name]  # (dim, OWN_PROPRIO [+ extras] + 1)
+        width = model.state_dict()[name].shape[1]
+        if old.shape[1] != width:  # a single-arm prior: widen; an earlier network of this kind already fits
+            new = torch.zeros(old.shape[0], width)
+            new[:, :OWN_PROPRIO] = old[:, :OWN_PROPRIO]
+            new[:, -1] = old[:, -1]  # the keyframe fraction
+            state[name] = new
     unexpected = model.load_state_dict(state, strict=False).unexpected_keys
     if unexpected:
         raise ValueError(f"the prior has weights this network lacks: {unexpected}")

@@ -1,5 +1,5 @@
-"""Running a PerAct-style voxel network for one arm on the global scene, with extra proprioception: the
-shared piece of the baselines that train or fine-tune a backbone on bimanual demos."""
+"""Running a prior-style network (it reads voxels or the arm's cloud) for one arm on the global scene, with extra
+proprioception: the shared piece of the baselines that train or fine-tune a backbone on bimanual demos."""
 
 from __future__ import annotations
 
@@ -35,7 +35,8 @@ class VoxelNetworkRunner:
                              f"{proprio_dim}: was it trained for another baseline?")
         self.model = model.freeze()
         self.text_encoder = text_encoder
-        self.builder = ArmObservationBuilder(VoxelGrid(tuple(model.config.bounds), model.config.voxel_size))
+        self.builder = ArmObservationBuilder(VoxelGrid(tuple(model.config.bounds), model.config.voxel_size),
+                                             points=model.cloud_points, voxels=model.observation == "voxels")
 
     def view(self, obs: KeyframeObservation) -> SceneView:
         return SceneView(obs, self.builder.build(obs), arm_frames(obs),
@@ -44,8 +45,8 @@ class VoxelNetworkRunner:
     def predict(self, view: SceneView, arm: str, extra: np.ndarray) -> PriorOutput:
         own = self.model.arm_proprio(view.per_arm[arm].proprio, view.obs.keyframe_index)
         proprio = np.concatenate([own[:OWN_PROPRIO], np.asarray(extra, np.float32).ravel(), own[OWN_PROPRIO:]])
-        return self.model.predict(torch.as_tensor(view.per_arm[arm].voxels)[None].float(),
-                                  torch.as_tensor(proprio)[None], view.text)
+        scene = self.model.observation_input(view.per_arm[arm].voxels, view.per_arm[arm].points)
+        return self.model.predict(torch.as_tensor(scene)[None].float(), torch.as_tensor(proprio)[None], view.text)
 
     def act(self, view: SceneView, arm: str, extra: np.ndarray) -> np.ndarray:
         out = self.predict(view, arm, extra)

@@ -105,6 +105,7 @@ class RVTPrior(UnimanualPrior):
     config_class = RVTConfig
     observation = "points"
     proprio_weight = "coarse.proprio_proj.weight"
+    extra_proprio_weights = ("fine.proprio_proj.weight",)  # both stages read the proprioception
 
     def __init__(self, config: RVTConfig) -> None:
         super().__init__(config)
