@@ -50,6 +50,7 @@ from bimanualshift.training.residual_trainer import (
     ResidualData,
     bc_loss,
     residual_data,
+    validation_losses,
 )
 from bimanualshift.utils.config_files import config_from_dict, load_safetensors, read_json_file
 from bimanualshift.utils.io import atomic_write_json, atomic_writer
@@ -246,9 +247,8 @@ def refine(cfg: RefineConfig, text_encoder: TextEncoder | None = None) -> Path:
         corr = bc_loss(residual(fixes.inputs), fixes, weights)["total"]
         return {**losses, "correction": corr, "total": losses["total"] + lambda_corr * corr}
 
-    def validate(step: int) -> float:
-        with torch.no_grad():
-            return float(bc_loss(residual(val.inputs), val, weights)["total"])
+    def validate(step: int) -> dict[str, float]:
+        return validation_losses(residual, val, weights)
 
     refine_meta = {**{k: v for k, v in meta.items() if k not in ("type", "residual")},
                    "refined_from": str(checkpoint), "refine_config": asdict(cfg)}

@@ -237,6 +237,21 @@ class LossWeights:
     hold: float = 0.01
 
 
+@torch.no_grad()
+def validation_losses(residual: ResidualPolicy, data: ResidualData, weights: LossWeights) -> dict[str, float]:
+    """What picks a residual checkpoint: the pose part of L_BC (translation + beta * rotation, Eq. 12 as
+    written), so the coordination outputs' cross-entropies, an order of magnitude larger, cannot choose an
+    undertrained pose residual; they are logged beside it, with each coordination output's validation accuracy."""
+    out = residual(data.inputs)
+    losses = bc_loss(out, data, weights)
+    report = {"value": float(losses["translation"] + weights.beta * losses["rotation"])}
+    for name, logit, target in (("gripper", "gripper_logit", data.gripper), ("hold", "hold_logit", data.hold)):
+        if logit in out and target is not None:
+            report[f"{name}_bce"] = round(float(losses[name]), 5)
+            report[f"{name}_accuracy"] = round(float(((out[logit] > 0).float() == target).float().mean()), 4)
+    return report
+
+
 def bc_loss(out: dict[str, torch.Tensor], data: ResidualData, weights: LossWeights) -> dict[str, torch.Tensor]:
     """Eq. 12 on the final action: a = prior + G(v), so the error of a equals the residual's error; with the
     coordination outputs, the binary cross-entropy of the final gripper logit and of the hold logit too."""
@@ -343,9 +358,8 @@ def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Pat
         batch = train.rows(torch.randint(len(train.inputs), (cfg.optim.batch_size,), generator=gen))
         return bc_loss(residual(batch.inputs), batch, weights)
 
-    def validate(step: int) -> float:
-        with torch.no_grad():
-            return float(bc_loss(residual(val.inputs), val, weights)["total"])
+    def validate(step: int) -> dict[str, float]:
+        return validation_losses(residual, val, weights)
 
     def on_best(step: int, value: float, elapsed_s: float) -> None:
         save_residual(out / "best", residual, {**checkpoint_meta, "trained_steps": step, "validation_loss": value},
