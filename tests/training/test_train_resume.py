@@ -249,3 +249,19 @@ def test_rvt_prior_pretrains_resumes_and_serves_the_residual_frozen(demo_root: P
                                     validation_data=str(demo_root / "bimanual"), out=str(tmp_path / "residual"),
                                     steps=2, checkpoint_every=2, demos=2), prior=prior)
     assert all(torch.equal(v, prior.state_dict()[k]) for k, v in before.items())  # the frozen prior never learned
+
+
+def test_a_residual_run_is_resumed_only_under_its_own_settings(demo_root: Path, tiny_prior: Path,
+                                                                tmp_path: Path) -> None:
+    from bimanualshift.training.residual_trainer import changed_settings
+
+    def cfg(**extra: object) -> TrainConfig:
+        return config_from_flat(TrainConfig, prior=str(tiny_prior), data=str(demo_root / "bimanual"),
+                                validation_data=str(demo_root / "bimanual"), out=str(tmp_path / "run"), steps=2,
+                                checkpoint_every=2, demos=2, augment_copies=0, **extra)
+
+    assert changed_settings(cfg()) == []  # nothing there yet
+    train_residual(cfg())
+    assert changed_settings(cfg()) == [] and changed_settings(cfg(paper_literal=True)) == ["model.paper_literal"]
+    with pytest.raises(ValueError, match=r"other settings \(model.paper_literal\).*own --out"):
+        train_residual(cfg(paper_literal=True))

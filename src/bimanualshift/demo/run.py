@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import shlex
+import shutil
 import sys
 import time
 from dataclasses import asdict, replace
@@ -26,7 +27,7 @@ from bimanualshift.rollout.loop import EpisodeRecord, rollout
 from bimanualshift.sim.env import ManipulationEnv
 from bimanualshift.training.configs import PretrainConfig, PriorDataConfig, ResidualDataConfig, TrainConfig
 from bimanualshift.training.pretrain import pretrain
-from bimanualshift.training.residual_trainer import train_residual
+from bimanualshift.training.residual_trainer import changed_settings, train_residual
 from bimanualshift.utils.workers import run_jobs
 
 
@@ -68,10 +69,15 @@ def run_demo(cfg: DemoConfig) -> dict:
     print("[demo] 2/4 frozen single-arm prior")
     prior_path = ensure_prior(cfg)
     print("[demo] 3/4 training the residual branch (prior and projection frozen)")
-    best = train_residual(TrainConfig(
+    train_cfg = TrainConfig(
         prior=prior_path, out=f"{cfg.workdir}/bimanualshift",
         dataset=ResidualDataConfig(task=cfg.task, data=data, validation_data=val_data, demos=cfg.demos),
-        optim=replace(TrainConfig().optim, steps=cfg.residual_steps, seed=cfg.seed)))
+        optim=replace(TrainConfig().optim, steps=cfg.residual_steps, seed=cfg.seed))
+    changed = changed_settings(train_cfg)
+    if changed:  # the demo's own scratch run, made by another version or settings: train afresh, never resume it
+        print(f"[demo] {train_cfg.out} was trained with other settings ({', '.join(changed)}): training afresh")
+        shutil.rmtree(train_cfg.out)
+    best = train_residual(train_cfg)
     print(f"[demo] 4/4 evaluating on {cfg.test_episodes} held-out test seeds per method")
     # Test episodes in worker processes (an episode depends only on its policy, task and seed, so the pool changes
     # no outcome); then the first test episode of each method again here, recorded for the strip and the video.

@@ -38,6 +38,7 @@ from bimanualshift.training.augment import (
     transform_quats,
     transform_scene,
 )
+from bimanualshift.training.checkpoint import latest_checkpoint
 from bimanualshift.training.configs import ARM_ORDER, TrainConfig
 from bimanualshift.training.loop import run_training
 from bimanualshift.training.optim import make_optimizer
@@ -307,9 +308,28 @@ def load_earlier(init_from: str, rcfg: ResidualConfig, retrieval: bool
     return load_safetensors(checkpoint / "model.safetensors"), memory
 
 
+def changed_settings(cfg: TrainConfig) -> list[str]:
+    """The settings (flattened ``group.field`` names) in which ``cfg`` differs from the run already in ``cfg.out``
+    (none when the folder holds no run): resuming would continue weights trained under the other settings."""
+    saved = Path(cfg.out) / "train_config.json"
+    if not saved.is_file() or latest_checkpoint(cfg.out) is None:
+        return []
+
+    def flat(d: dict, prefix: str = "") -> dict:
+        return {k2: v2 for k, v in d.items()
+                for k2, v2 in (flat(v, f"{prefix}{k}.").items() if isinstance(v, dict) else [(f"{prefix}{k}", v)])}
+
+    before, now = flat(read_json_file(saved)), flat(asdict(cfg))
+    return sorted(k for k in now if k in before and before[k] != now[k])
+
+
 def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Path:
     started = time.time()
     out = Path(cfg.out)
+    changed = changed_settings(cfg)
+    if changed:
+        raise ValueError(f"{out} holds a residual run trained with other settings ({', '.join(changed)}); resuming "
+                         "would continue it under these: give this run its own --out, or delete that folder")
     out.mkdir(parents=True, exist_ok=True)
     atomic_write_json(out / "train_config.json", asdict(cfg))
     text_encoder = make_text_encoder(cfg.model.text_encoder)  # the prior keeps the encoder it was pretrained with
