@@ -3,9 +3,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bimanualshift.configs import prior_model_config
+from bimanualshift.configs import PRIOR_SIZES, prior_model_config
 from bimanualshift.perception.arm_samples import ArmSamples, action_chunks
-from bimanualshift.priors.base import PRIORS, build_prior, resolve_prior_path, shipped_priors
+from bimanualshift.priors.base import build_prior, resolve_prior_path, shipped_priors
 
 
 def test_shipped_priors_resolve_by_name_and_unknown_names_fail_clearly(tmp_path: Path) -> None:
@@ -44,7 +44,7 @@ def test_action_chunks_follow_each_arm_and_repeat_the_last_keyframe() -> None:
         action_chunks(samples, 0)
 
 
-@pytest.mark.parametrize("kind", sorted(PRIORS))
+@pytest.mark.parametrize("kind", sorted(PRIOR_SIZES))
 def test_every_prior_names_its_observation_and_takes_it(kind: str) -> None:
     """``observation`` says what ``predict`` reads; a method of that name would hide it (the DP prior once did)."""
     prior = build_prior(kind, "debug")

@@ -257,11 +257,12 @@ def test_a_residual_run_is_resumed_only_under_its_own_settings(demo_root: Path, 
 
     def cfg(**extra: object) -> TrainConfig:
         return config_from_flat(TrainConfig, prior=str(tiny_prior), data=str(demo_root / "bimanual"),
-                                validation_data=str(demo_root / "bimanual"), out=str(tmp_path / "run"), steps=2,
-                                checkpoint_every=2, demos=2, augment_copies=0, **extra)
+                                validation_data=str(demo_root / "bimanual"), out=str(tmp_path / "run"),
+                                checkpoint_every=2, demos=2, augment_copies=0, **{"steps": 2, **extra})
 
     assert changed_settings(cfg()) == []  # nothing there yet
     train_residual(cfg())
     assert changed_settings(cfg()) == [] and changed_settings(cfg(paper_literal=True)) == ["model.paper_literal"]
+    assert changed_settings(cfg(steps=4)) == []  # more steps extend the run
     with pytest.raises(ValueError, match=r"other settings \(model.paper_literal\).*own --out"):
         train_residual(cfg(paper_literal=True))

@@ -308,6 +308,10 @@ def load_earlier(init_from: str, rcfg: ResidualConfig, retrieval: bool
     return load_safetensors(checkpoint / "model.safetensors"), memory
 
 
+# What a resumed run may change: more steps extend it; the demos' folders may move.
+RESUMABLE_CHANGES = ("optim.steps", "dataset.data", "dataset.validation_data", "out")
+
+
 def changed_settings(cfg: TrainConfig) -> list[str]:
     """The settings (flattened ``group.field`` names) in which ``cfg`` differs from the run already in ``cfg.out``
     (none when the folder holds no run): resuming would continue weights trained under the other settings."""
@@ -320,7 +324,7 @@ def changed_settings(cfg: TrainConfig) -> list[str]:
                 for k2, v2 in (flat(v, f"{prefix}{k}.").items() if isinstance(v, dict) else [(f"{prefix}{k}", v)])}
 
     before, now = flat(read_json_file(saved)), flat(asdict(cfg))
-    return sorted(k for k in now if k in before and before[k] != now[k])
+    return sorted(k for k in now if k in before and before[k] != now[k] and k not in RESUMABLE_CHANGES)
 
 
 def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Path:
