@@ -43,12 +43,11 @@ from bimanualshift.training.configs import RefineConfig, TrainConfig
 from bimanualshift.training.loop import run_training
 from bimanualshift.training.optim import make_lamb
 from bimanualshift.training.residual_trainer import (
-    HOLD_TOLERANCE_M,
-    HOLD_TOLERANCE_RAD,
     TARGET_FIELDS,
     LossWeights,
     ResidualData,
     bc_loss,
+    repeats,
     residual_data,
     validation_losses,
 )
@@ -76,13 +75,6 @@ def strays(policy_row: np.ndarray, expert_row: np.ndarray, tolerance_m: float, t
     angle = np.degrees(np.linalg.norm(rotation_difference(expert_row[3:7], policy_row[3:7]))) > tolerance_deg
     gripper = (policy_row[7] > 0.5) != (expert_row[7] > 0.5)
     return bool(position or angle or gripper)
-
-
-def repeats(action: np.ndarray, previous: np.ndarray) -> bool:
-    """Whether a world-frame action repeats the arm's previous one (a hold; the tolerances of ``hold_labels``)."""
-    near = np.linalg.norm(action[:3] - previous[:3]) < HOLD_TOLERANCE_M
-    turned = np.linalg.norm(rotation_difference(action[3:7], previous[3:7]))
-    return bool(near and turned < HOLD_TOLERANCE_RAD and (action[7] > 0.5) == (previous[7] > 0.5))
 
 
 def _trajectory_row(decisions: list, executed: np.ndarray) -> np.ndarray:

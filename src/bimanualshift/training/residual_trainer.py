@@ -80,10 +80,17 @@ def hold_labels(samples: ArmSamples) -> np.ndarray:
         j = where.get((int(e), arm, int(k) - 1))
         if j is None:
             continue
-        near = np.linalg.norm(samples.action_pos[i] - samples.action_pos[j]) < HOLD_TOLERANCE_M
-        turned = np.linalg.norm(rotation_difference(samples.action_quat[i], samples.action_quat[j]))
-        out[i] = float(near and turned < HOLD_TOLERANCE_RAD and samples.gripper_open[i] == samples.gripper_open[j])
+        rows = [np.r_[samples.action_pos[m], samples.action_quat[m], samples.gripper_open[m]] for m in (i, j)]
+        out[i] = float(repeats(*rows))
     return out
+
+
+def repeats(action: np.ndarray, previous: np.ndarray) -> bool:
+    """Whether an action (position, quaternion, gripper, ...) repeats the arm's previous one in the same frame:
+    the same gripper state, within ``HOLD_TOLERANCE_M`` and ``HOLD_TOLERANCE_RAD`` (a hold)."""
+    near = np.linalg.norm(action[:3] - previous[:3]) < HOLD_TOLERANCE_M
+    turned = np.linalg.norm(rotation_difference(action[3:7], previous[3:7]))
+    return bool(near and turned < HOLD_TOLERANCE_RAD and (action[7] > 0.5) == (previous[7] > 0.5))
 
 
 def residual_data(config: ResidualConfig, paths: list[Path], prior_step: FrozenPriorStep, text_encoder: TextEncoder,
