@@ -66,6 +66,10 @@ COMMANDS: dict[str, Command] = {
                        "reached and the first keyframe and arm that strayed from the expert"),
     "demo": Command("demo:demo", "collect, (pre)train, train the residual, evaluate: the whole method",
                     config_file=True),
+    "serve": Command("deploy:serve", "serve a checkpoint to robots over a websocket (openpi-compatible; token, "
+                     "size limits, structured errors)"),
+    "deploy": Command("deploy:deploy", "run a served checkpoint on a robot (--robot sim: the benchmark scene) "
+                      "through the policy server"),
     "report": Command("evaluate:report", "regenerate the README tables from the result files"),
 }
 

@@ -163,9 +163,11 @@ def save_residual(directory: str | Path, residual: ResidualPolicy, extra: dict[s
     return save_residual_checkpoint(directory, residual, extra)
 
 
-def load_bimanualshift(directory: str | Path, text_encoder: TextEncoder | None = None) -> BimanualShift:
+def load_bimanualshift(directory: str | Path, text_encoder: TextEncoder | None = None,
+                       segmenter: str | None = None) -> BimanualShift:
     """A trained (or refined) BimanualShift; ``text_encoder`` is the prior's (default: the bundled MiniLM it is
-    pretrained with), the residual's comes from the checkpoint's ``text_encoder`` spec."""
+    pretrained with), the residual's comes from the checkpoint's ``text_encoder`` spec. ``segmenter`` replaces
+    the one it was trained with (a real robot has no simulator maps: ``grounded_sam``)."""
     directory = Path(directory)
     cfg, rcfg = read_residual_config(directory)
     prior = UnimanualPrior.from_pretrained(cfg["prior"])
@@ -177,7 +179,7 @@ def load_bimanualshift(directory: str | Path, text_encoder: TextEncoder | None =
     memory = MemoryBank.load(directory / MEMORY_FILE) if rcfg.reference_dim > 0 else None
     prior_step = FrozenPriorStep(prior, text_encoder, use_projection=cfg.get("use_projection", True),
                              locate_goal=rcfg.goal_dim > 0,
-                             segmenter=cfg.get("segmenter", "simulator"),
+                             segmenter=segmenter or cfg.get("segmenter", "simulator"),
                              segmenter_options=cfg.get("segmenter_options"),
                              proposal_features=rcfg.proposal_dim > 0)
     return BimanualShift(prior_step, residual, memory, residual_encoder)

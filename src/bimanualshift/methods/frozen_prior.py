@@ -22,11 +22,11 @@ class FrozenPriorPerArm:
 
     @staticmethod
     def from_pretrained(prior: str, text_encoder: TextEncoder, name: str = "frozen_prior_per_arm",
-                        use_projection: bool = False) -> FrozenPriorPerArm:
+                        use_projection: bool = False, segmenter: str = "simulator") -> FrozenPriorPerArm:
         """The baseline sees the global scene: no arm-conditioned projection, no residual. With
         ``use_projection`` it is the "without residual modulation" ablation: the projection, but no residual."""
         return FrozenPriorPerArm(FrozenPriorStep(UnimanualPrior.from_pretrained(prior), text_encoder,
-                                                  use_projection=use_projection), name)
+                                                  use_projection=use_projection, segmenter=segmenter), name)
 
     def reset(self) -> None:
         self._log: list[dict] = []

@@ -1,0 +1,91 @@
+"""Commands for a robot: serve a checkpoint, run it on a (simulated) robot through the server."""
+
+from __future__ import annotations
+
+import logging
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Literal
+
+from bimanualshift.cli.common import command_line, resolve_tasks
+
+
+def read_token(path: str) -> str | None:
+    """The shared secret in ``path`` (its first line), or None without a path."""
+    if not path:
+        return None
+    file = Path(path)
+    if not file.is_file():
+        raise FileNotFoundError(f"--token-file {path}: no such file (put a long random secret in it, e.g. "
+                                f"`python -c 'import secrets; print(secrets.token_urlsafe(32))' > {path}`)")
+    token = file.read_text().strip().splitlines()[0].strip() if file.read_text().strip() else ""
+    if len(token) < 16:
+        raise ValueError(f"--token-file {path}: the token must be at least 16 characters, it has {len(token)}")
+    if file.stat().st_mode & 0o077:
+        logging.getLogger("bimanualshift.serve").warning("%s is readable by other users (chmod 600 it)", path)
+    return token
+
+
+@dataclass
+class ServeArgs:
+    checkpoint: str = ""  # a trained BimanualShift run's best/ (or refine/best) folder
+    prior: str = ""  # instead of --checkpoint: serve a frozen prior alone (with --method no_residual)
+    method: str = "bimanualshift"  # its name in the registry (an ablation's checkpoint serves under its own name)
+    host: str = "127.0.0.1"  # anything but loopback needs --token-file
+    port: int = 8000
+    token_file: str = ""  # clients must send 'Authorization: Api-Key <token>' (openpi-client's api_key)
+    segmenter: str = ""  # replaces the checkpoint's: grounded_sam on a real robot (no simulator maps)
+    max_message_mb: float = 32.0  # larger frames get an error reply (4x larger ones are closed unread)
+    idle_timeout_s: float = 300.0
+    max_connections: int = 32
+
+
+def serve(args: ServeArgs) -> None:
+    from bimanualshift.deploy.served_policy import load_served_policy
+    from bimanualshift.deploy.server import PolicyServer, ServerConfig, check_bind
+
+    logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s %(levelname)s %(message)s")
+    token = read_token(args.token_file)
+    check_bind(args.host, token)  # before loading anything
+    served = load_served_policy(args.method if args.checkpoint else (
+        args.method if args.method != "bimanualshift" else "no_residual"), args.checkpoint, args.prior, args.segmenter)
+    config = ServerConfig(args.host, args.port, token, int(args.max_message_mb * 2**20), args.idle_timeout_s,
+                          args.max_connections)
+    PolicyServer(served.policy, served.metadata, config, check=served.check).serve_forever()
+
+
+@dataclass
+class DeployArgs:
+    robot: Literal["sim"] = "sim"  # a real robot plugs in through deploy.robot.Robot (docs/deploy.md)
+    task: list[str] = field(default_factory=lambda: ["push_two_buttons"])  # the simulated robot's task(s)
+    server: str = "ws://127.0.0.1:8000"
+    token_file: str = ""
+    episodes: int = 20  # per task
+    split: Literal["validation", "test"] = "test"
+    max_keyframes: int = 0  # as in `eval`: 0 = twice the expert's keyframes on the seed
+    out: str = ""  # write a result JSON (per-seed success, round trips, clipping) here
+
+
+def deploy(args: DeployArgs) -> None:
+    from bimanualshift.data.seeds import split_seeds
+    from bimanualshift.deploy.client import PolicyClient
+    from bimanualshift.deploy.loop import deploy_sim, episode_row
+    from bimanualshift.evaluation.report import write_result
+    from bimanualshift.evaluation.stats import wilson_interval
+
+    started = time.time()
+    client = PolicyClient(args.server, read_token(args.token_file))
+    seeds = split_seeds(args.split, args.episodes)
+    rows = []
+    for task in resolve_tasks(args.task):
+        records = deploy_sim(task, client, seeds, args.max_keyframes)
+        wins = sum(r.success for r in records)
+        low, high = wilson_interval(wins, len(records))
+        print(f"{task}: {wins}/{len(records)} ({100 * wins / len(records):.0f} %, 95 % CI {100 * low:.0f}-"
+              f"{100 * high:.0f}); aborted {sum(bool(r.aborted) for r in records)}")
+        rows += [episode_row(r) for r in records]
+    client.close()
+    if args.out:
+        write_result(args.out, command_line(), {args.split: seeds}, started, rows, server=client.metadata)
+        print(f"wrote {args.out}")

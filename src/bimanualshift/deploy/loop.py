@@ -1,0 +1,83 @@
+"""The deployment loop: read the robot, ask the policy server, send the (clipped) keyframe, until the episode ends.
+
+If the server goes away mid-episode the robot holds its pose and the episode is reported as aborted, with the
+reason; the next episode reconnects first.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+from tqdm import tqdm
+
+from bimanualshift.deploy.client import PolicyClient, ServerError, ServerUnavailable
+from bimanualshift.deploy.robot import action_dict, action_rows, observation_from_robot
+from bimanualshift.deploy.schema import action_from_reply, observation_message
+from bimanualshift.deploy.sim_robot import MujocoRobot
+from bimanualshift.rollout.loop import KEYFRAME_BUDGET
+
+
+@dataclass
+class DeployedEpisode:
+    task: str
+    seed: int
+    success: bool
+    keyframes: int
+    stages_done: int
+    aborted: str | None = None  # why the episode stopped early (the server went away, refused a request)
+    clipped: int = 0  # commands the safety limits changed
+    executed: list[list[list[float]]] = field(default_factory=list)  # per keyframe the (arms, 9) rows sent
+    round_trip_ms: list[float] = field(default_factory=list)
+    diagnostics: list[dict[str, Any]] = field(default_factory=list)  # the server's per-keyframe policy log
+
+
+def run_sim_episode(robot: MujocoRobot, client: PolicyClient, seed: int, max_keyframes: int = 0) -> DeployedEpisode:
+    """One episode on ``seed`` within the benchmark's budget (``KEYFRAME_BUDGET`` x the expert's keyframes;
+    ``max_keyframes`` caps it), every observation and action through the server's codec."""
+    context = robot.reset_episode(seed)
+    budget = KEYFRAME_BUDGET * robot.expert_keyframe_count()
+    budget = min(budget, max_keyframes) if max_keyframes else budget
+    record = DeployedEpisode(robot.task_name, seed, False, 0, 0)
+    for k in range(budget):
+        reading = robot.get_observation()
+        obs = observation_from_robot(robot, reading, context, k)
+        message = observation_message(obs, context.episode_id, with_maps=f"{robot.camera_names[0]}_instance" in reading)
+        started = time.perf_counter()
+        try:
+            reply = client.infer(message)
+        except (ServerUnavailable, ServerError) as err:
+            robot.hold()
+            record.aborted = f"{type(err).__name__}: {err}"
+            break
+        record.round_trip_ms.append(1e3 * (time.perf_counter() - started))
+        record.diagnostics.append(reply.get("diagnostics", {}))
+        sent = robot.send_action(action_dict(action_from_reply(reply, list(robot.arm_names)), robot.arm_names))
+        record.executed.append(action_rows(sent, robot.arm_names).tolist())
+        record.clipped += sum(bool(sent[f"{arm}_clipped"]) for arm in robot.arm_names)
+        record.keyframes, record.stages_done = k + 1, robot.stages_done
+        if robot.success or sent["truncated"]:
+            break
+    record.success = robot.success
+    return record
+
+
+def deploy_sim(task: str, client: PolicyClient, seeds: list[int], max_keyframes: int = 0) -> list[DeployedEpisode]:
+    robot = MujocoRobot(task)
+    robot.connect()
+    records = []
+    try:
+        for seed in tqdm(seeds, desc=f"deploy {task}", unit="ep"):
+            if records and records[-1].aborted:
+                client.reconnect()
+            records.append(run_sim_episode(robot, client, seed, max_keyframes))
+    finally:
+        robot.disconnect()
+    return records
+
+
+def episode_row(record: DeployedEpisode) -> dict[str, Any]:
+    row = asdict(record)
+    row["round_trip_ms"] = [round(v, 1) for v in row["round_trip_ms"]]
+    return row
