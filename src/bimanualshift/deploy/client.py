@@ -41,7 +41,7 @@ class PolicyClient:
         headers = {"Authorization": f"Api-Key {self.token}"} if self.token else None
         try:
             self._ws = connect(self.url, additional_headers=headers, compression=None, max_size=None,
-                               open_timeout=self.timeout_s)
+                               open_timeout=self.timeout_s, legacy=True)  # a plain connection, closed by close()
             self.metadata = unpack(self._ws.recv(timeout=self.timeout_s))
         except InvalidStatus as err:
             status = err.response.status_code

@@ -97,6 +97,7 @@ class Robot(ABC):
     @abstractmethod
     def send_action(self, action: dict[str, Any]) -> dict[str, Any]: ...
 
+    @abstractmethod
     def hold(self) -> None:
         """Keep every arm where it is (the server went away, or an operator stopped the episode)."""
 

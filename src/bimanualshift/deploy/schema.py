@@ -136,7 +136,7 @@ def parse_observation(msg: Any) -> ParsedObservation:
     if not isinstance(msg, dict):
         raise SchemaError("message", "a map", describe(msg), code="bad_message")
     version = _get(msg, "schema_version")
-    if version != SCHEMA_VERSION:
+    if type(version) is not int or version != SCHEMA_VERSION:
         raise SchemaError("schema_version", str(SCHEMA_VERSION), describe(version), code="schema_version")
     episode_id = _string(_get(msg, "episode_id"), "episode_id", 256)
     keyframe = _integer(_get(msg, "keyframe"), "keyframe")

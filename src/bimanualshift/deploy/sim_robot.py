@@ -29,7 +29,7 @@ class MujocoRobot(Robot):
         self.calibration = calibration
         self._obs: dict[str, Any] | None = None
         self.filters: dict[str, SafetyFilter] = {}
-        self.success, self.stages_done = False, 0
+        self.success, self.stages_done, self.held = False, 0, False
 
     # -- connection ---------------------------------------------------------------------------------------------
     @property
@@ -83,8 +83,13 @@ class MujocoRobot(Robot):
             out[f"{cam}_intrinsics"], out[f"{cam}_extrinsics"] = obs["intrinsics"][cam], obs["extrinsics"][cam]
         return out
 
+    def hold(self) -> None:
+        # the arms' controllers keep their last targets; nothing more is stepped until the next command
+        self.held = True
+
     def send_action(self, action: dict[str, Any]) -> dict[str, Any]:
         env = self._env()
+        self.held = False
         sent: dict[str, Any] = {}
         for arm in self.arm_names:
             pose, grip, clipped = self.filters[arm].apply(np.asarray(action[f"{arm}_ee_pose"]),

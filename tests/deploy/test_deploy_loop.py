@@ -1,0 +1,67 @@
+"""The deployment loop on the MuJoCo robot: the same actions as the offline rollout, seed for seed, and a
+server that dies mid-episode leaves the robot holding and the episode reported."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from conftest import CountingPolicy
+
+from bimanualshift.deploy.client import PolicyClient
+from bimanualshift.deploy.loop import run_sim_episode
+from bimanualshift.deploy.served_policy import load_served_policy
+from bimanualshift.deploy.server import PolicyServer, ServerConfig
+from bimanualshift.deploy.sim_robot import MujocoRobot
+from bimanualshift.rollout.loop import rollout
+from bimanualshift.sim.env import ManipulationEnv
+
+pytestmark = pytest.mark.slow
+
+
+def test_deployed_episode_matches_the_offline_rollout() -> None:
+    served = load_served_policy("no_residual", prior="peract_suite")
+    env = ManipulationEnv("push_two_buttons")
+    exact: list[list] = []
+
+    def act(k: int, frame: object) -> np.ndarray:
+        exact.append(served.policy.act(frame).tolist())
+        return np.asarray(exact[-1], np.float32)
+
+    served.policy.reset()
+    offline = rollout(env, served.policy, seed=3, max_keyframes=2, act=act)
+    env.close()
+    server = PolicyServer(served.policy, served.metadata, ServerConfig(port=0), check=served.check)
+    server.start_background()
+    robot = MujocoRobot("push_two_buttons")
+    robot.connect()
+    try:
+        deployed = run_sim_episode(robot, PolicyClient(f"ws://127.0.0.1:{server.port}"), seed=3, max_keyframes=2)
+    finally:
+        robot.disconnect()
+        server.stop()
+    assert deployed.aborted is None and deployed.keyframes == offline.keyframes == 2
+    assert deployed.executed == exact  # bit for bit: the codec and the schema change nothing
+    assert deployed.success == offline.success and deployed.stages_done == offline.stages_done
+    assert "arms" in deployed.diagnostics[0]
+
+
+def test_server_death_mid_episode_holds_and_reports() -> None:
+    server = PolicyServer(CountingPolicy(), {}, ServerConfig(port=0)).start_background()
+
+    class DyingClient(PolicyClient):
+        calls = 0
+
+        def infer(self, message: dict) -> dict:
+            self.calls += 1
+            if self.calls == 2:
+                server.stop()
+            return super().infer(message)
+
+    robot = MujocoRobot("push_two_buttons")
+    robot.connect()
+    try:
+        record = run_sim_episode(robot, DyingClient(f"ws://127.0.0.1:{server.port}", retries=0), seed=0)
+        assert record.keyframes == 1 and record.aborted and "ServerUnavailable" in record.aborted
+        assert robot.env.keyframe_index == 1  # nothing was sent after the server went away
+    finally:
+        robot.disconnect()
