@@ -70,6 +70,8 @@ COMMANDS: dict[str, Command] = {
                      "size limits, structured errors)"),
     "deploy": Command("deploy:deploy", "run a served checkpoint on a robot (--robot sim: the benchmark scene) "
                       "through the policy server"),
+    "calibrate": Command("deploy:calibrate", "camera-to-base calibration from gripper poses and ArUco detections "
+                         "(--robot sim: rendered views, errors against the simulator's truth)"),
     "report": Command("evaluate:report", "regenerate the README tables from the result files"),
 }
 

@@ -13,7 +13,7 @@ from typing import Any
 from tqdm import tqdm
 
 from bimanualshift.deploy.client import PolicyClient, ServerError, ServerUnavailable
-from bimanualshift.deploy.robot import action_dict, action_rows, observation_from_robot
+from bimanualshift.deploy.robot import Calibration, action_dict, action_rows, observation_from_robot
 from bimanualshift.deploy.schema import action_from_reply, observation_message
 from bimanualshift.deploy.sim_robot import MujocoRobot
 from bimanualshift.rollout.loop import KEYFRAME_BUDGET
@@ -63,8 +63,9 @@ def run_sim_episode(robot: MujocoRobot, client: PolicyClient, seed: int, max_key
     return record
 
 
-def deploy_sim(task: str, client: PolicyClient, seeds: list[int], max_keyframes: int = 0) -> list[DeployedEpisode]:
-    robot = MujocoRobot(task)
+def deploy_sim(task: str, client: PolicyClient, seeds: list[int], max_keyframes: int = 0,
+               calibration: Calibration | None = None) -> list[DeployedEpisode]:
+    robot = MujocoRobot(task, calibration=calibration)
     robot.connect()
     records = []
     try:

@@ -26,7 +26,10 @@ class MujocoRobot(Robot):
                  image_size: int = 128) -> None:
         self.task_name, self.limits, self.image_size = task, limits, image_size
         self.env: ManipulationEnv | None = None
+        # a calibration file replaces the simulator's static camera poses and base anchors (its wrist cameras keep
+        # the simulator's: the file holds no hand-eye transform for them)
         self.calibration = calibration
+        self.calibrated_from_file = calibration is not None
         self._obs: dict[str, Any] | None = None
         self.filters: dict[str, SafetyFilter] = {}
         self.success, self.stages_done, self.held = False, 0, False
@@ -80,7 +83,8 @@ class MujocoRobot(Robot):
             views = obs["cameras"][cam]
             out[f"{cam}_rgb"], out[f"{cam}_depth"] = views["rgb"], views["depth"]
             out[f"{cam}_instance"], out[f"{cam}_class"] = views["instance"], views["class"]
-            out[f"{cam}_intrinsics"], out[f"{cam}_extrinsics"] = obs["intrinsics"][cam], obs["extrinsics"][cam]
+            if not (self.calibrated_from_file and cam in self.calibration.extrinsics):
+                out[f"{cam}_intrinsics"], out[f"{cam}_extrinsics"] = obs["intrinsics"][cam], obs["extrinsics"][cam]
         return out
 
     def hold(self) -> None:
