@@ -6,7 +6,9 @@ import logging
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Literal
+from typing import Annotated, Literal
+
+import tyro
 
 from bimanualshift.cli.common import command_line, resolve_tasks
 
@@ -138,3 +140,56 @@ def calibrate(args: CalibrateArgs) -> None:
                      noise={"pixel": args.pixel_noise, "position_mm": args.position_noise_mm,
                             "rotation_deg": args.rotation_noise_deg})
         print(f"wrote {args.results}")
+
+
+@dataclass
+class ExportLerobotArgs:
+    data: Annotated[str, tyro.conf.Positional]  # a folder of episodes (a sub-folder per task: `collect`, `record`)
+    out: Annotated[str, tyro.conf.Positional]  # the LeRobot v3.0 dataset folder to write
+    task: list[str] = field(default_factory=list)  # only these tasks (default: every task folder in DATA)
+    robot_type: str = "bimanual_panda"
+    overwrite: bool = False
+
+
+def export_lerobot(args: ExportLerobotArgs) -> None:
+    from bimanualshift.data.episode import read_episode
+    from bimanualshift.data.lerobot_format import export_lerobot as write_dataset
+
+    root = Path(args.data)
+    if not root.is_dir():
+        raise FileNotFoundError(f"{root}: no such folder of episodes")
+    tasks = args.task or sorted(p.name for p in root.iterdir() if p.is_dir())
+    paths = [p for t in tasks for p in sorted((root / t).glob("episode_*.h5"))]
+    if not paths:
+        raise FileNotFoundError(f"no episode_*.h5 files under {root}/{{{','.join(tasks)}}}")
+    out = write_dataset([read_episode(p) for p in paths], args.out, args.robot_type, args.overwrite)
+    print(f"wrote {len(paths)} episodes to {out} (LeRobot v3.0)")
+
+
+@dataclass
+class ImportLerobotArgs:
+    dataset: Annotated[str, tyro.conf.Positional]  # a LeRobot v3.0 dataset folder
+    out: str = "data/imported"  # where the episodes go (<out>/<task>/episode_<seed>.h5)
+    calibration: str = ""  # arm base positions for a dataset that does not record them
+    task: str = ""  # the task folder name for a dataset that does not record one (default: lerobot)
+    # a joint-space dataset: a MuJoCo model (MJCF/URDF) whose joints carry the state's names and which has a site
+    # <arm>_ee per arm, and the arm names the state's names start with
+    kinematics: str = ""
+    arms: list[str] = field(default_factory=list)
+
+
+def import_lerobot(args: ImportLerobotArgs) -> None:
+    from bimanualshift.data.episode import episode_path, write_episode
+    from bimanualshift.data.lerobot_format import import_lerobot as read_dataset
+    from bimanualshift.deploy.robot import Calibration
+
+    from bimanualshift.data.kinematics import KinematicsModel
+
+    bases = Calibration.load(args.calibration).arm_bases if args.calibration else None
+    kinematics = KinematicsModel(args.kinematics) if args.kinematics else None
+    episodes = read_dataset(args.dataset, bases, kinematics, args.arms or None)
+    for ep in episodes:
+        if args.task:
+            ep.task = args.task
+        write_episode(episode_path(args.out, ep.task, ep.seed), ep)
+    print(f"wrote {len(episodes)} episodes under {args.out}")
