@@ -180,10 +180,9 @@ class ImportLerobotArgs:
 
 def import_lerobot(args: ImportLerobotArgs) -> None:
     from bimanualshift.data.episode import episode_path, write_episode
+    from bimanualshift.data.kinematics import KinematicsModel
     from bimanualshift.data.lerobot_format import import_lerobot as read_dataset
     from bimanualshift.deploy.robot import Calibration
-
-    from bimanualshift.data.kinematics import KinematicsModel
 
     bases = Calibration.load(args.calibration).arm_bases if args.calibration else None
     kinematics = KinematicsModel(args.kinematics) if args.kinematics else None
