@@ -192,3 +192,35 @@ def import_lerobot(args: ImportLerobotArgs) -> None:
             ep.task = args.task
         write_episode(episode_path(args.out, ep.task, ep.seed), ep)
     print(f"wrote {len(episodes)} episodes under {args.out}")
+
+
+@dataclass
+class RecordArgs:
+    robot: Literal["sim"] = "sim"
+    task: str = "push_two_buttons"
+    teleop: Literal["scripted", "keyboard"] = "scripted"  # keyboard: w/s a/d r/f move, g gripper, tab arm, q done
+    seeds: list[int] = field(default_factory=lambda: [0])  # one episode per seed (the scene's randomisation)
+    out: str = "data/recorded"  # episodes go to <out>/<task>/episode_<seed>.h5
+    keep_failures: bool = False
+
+
+def record(args: RecordArgs) -> None:
+    from bimanualshift.deploy.record import record as record_episodes
+    from bimanualshift.deploy.teleop import KeyboardTeleop, ScriptedTeleop
+
+    if args.teleop == "keyboard":
+        import sys
+        import termios
+        import tty
+
+        if not sys.stdin.isatty():
+            raise ValueError("--teleop keyboard needs a terminal (or use --teleop scripted)")
+        saved = termios.tcgetattr(sys.stdin)
+        tty.setcbreak(sys.stdin.fileno())
+        try:
+            written = record_episodes(args.task, KeyboardTeleop(), args.seeds, args.out, args.keep_failures)
+        finally:
+            termios.tcsetattr(sys.stdin, termios.TCSADRAIN, saved)
+    else:
+        written = record_episodes(args.task, ScriptedTeleop(), args.seeds, args.out, args.keep_failures)
+    print(f"wrote {len(written)} of {len(args.seeds)} episodes under {args.out}/{args.task}")

@@ -72,6 +72,8 @@ COMMANDS: dict[str, Command] = {
                       "through the policy server"),
     "calibrate": Command("deploy:calibrate", "camera-to-base calibration from gripper poses and ArUco detections "
                          "(--robot sim: rendered views, errors against the simulator's truth)"),
+    "record": Command("deploy:record", "record demonstrations by teleoperation (--teleop scripted|keyboard) with "
+                      "dense trajectories and discovered keyframes"),
     "export-lerobot": Command("deploy:export_lerobot", "write episodes as a LeRobot v3.0 dataset (parquet + AV1 "
                               "video; depth exact in parquet)"),
     "import-lerobot": Command("deploy:import_lerobot", "read a LeRobot v3.0 dataset back into episodes (says which "

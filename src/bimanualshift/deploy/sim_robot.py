@@ -87,6 +87,19 @@ class MujocoRobot(Robot):
                 out[f"{cam}_intrinsics"], out[f"{cam}_extrinsics"] = obs["intrinsics"][cam], obs["extrinsics"][cam]
         return out
 
+    def joint_reading(self) -> dict[str, Any]:
+        """The arms' poses and grippers now, without rendering (what a teleoperator reads every control step)."""
+        env = self._env()
+        proprio = env.proprio()
+        return {**{f"{arm}_ee_pose": proprio[a, :7] for a, arm in enumerate(self.arm_names)},
+                **{f"{arm}_gripper_open": float(proprio[a, 7]) for a, arm in enumerate(self.arm_names)}}
+
+    def servo(self, command: dict[str, tuple[np.ndarray, np.ndarray, float]]) -> None:
+        """One control step towards a teleoperator's targets, clipped into the workspace."""
+        low, high = np.asarray(self.limits.workspace_low), np.asarray(self.limits.workspace_high)
+        self._env().servo({arm: np.clip(c[0], low, high) for arm, c in command.items()},
+                          {arm: c[1] for arm, c in command.items()}, {arm: c[2] for arm, c in command.items()})
+
     def hold(self) -> None:
         # the arms' controllers keep their last targets; nothing more is stepped until the next command
         self.held = True

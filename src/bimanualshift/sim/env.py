@@ -301,6 +301,13 @@ class ManipulationEnv(gym.Env):
             "gripper_open": np.array([self.gripper_open[a] for a in self.arm_names]),
         }
 
+    def servo(self, positions: dict[str, np.ndarray], quats_xyzw: dict[str, np.ndarray],
+              gripper_open: dict[str, float]) -> None:
+        """One control step towards per-arm end-effector targets (a teleoperator's stream, not keyframes)."""
+        for arm in self.arm_names:
+            self.gripper_open[arm] = float(gripper_open[arm] > 0.5)
+        self._control_step(self._robot_command(positions, {a: canonical_quat(q) for a, q in quats_xyzw.items()}))
+
     def _settle(self, steps: int) -> None:
         positions, rotations = {}, {}
         for i, arm in enumerate(self.arm_names):
