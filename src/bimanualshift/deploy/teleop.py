@@ -60,7 +60,8 @@ class ScriptedTeleop:
             r0, r1 = Rotation.from_quat(cmd[3:7]), Rotation.from_quat(target[a, 3:7])
             angle = float((r0.inv() * r1).magnitude())
             if angle > 1e-6:
-                cmd[3:7] = Slerp([0, 1], Rotation.concatenate([r0, r1]))([min(1.0, self.max_step_rad / angle)]).as_quat()[0]
+                turn = Slerp([0, 1], Rotation.concatenate([r0, r1]))
+                cmd[3:7] = turn([min(1.0, self.max_step_rad / angle)]).as_quat()[0]
             here = np.asarray(reading[f"{arm}_ee_pose"], np.float64)
             arrived &= bool(np.linalg.norm(here[:3] - target[a, :3]) < self.arrive_m and dist <= self.max_step_m)
             out[arm] = (cmd[:3].copy(), cmd[3:7].copy(), self.grip[arm])
