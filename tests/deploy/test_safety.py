@@ -47,3 +47,18 @@ def test_gripper_is_debounced_and_non_finite_commands_hold() -> None:
 def test_limits_are_checked() -> None:
     with pytest.raises(ValueError, match="below"):
         SafetyLimits((0, 0, 1), (1, 1, 0.5))
+
+
+def test_executor_streams_keyframes_at_the_robots_rate() -> None:
+    from bimanualshift.deploy.executor import KeyframeExecutor
+
+    ex = KeyframeExecutor(rate_hz=100.0, max_speed_m_s=0.2, max_angular_speed_rad_s=1.0)
+    target = np.array([0.1, 0.0, 1.0, *Rotation.from_euler("z", 0.5).as_quat()])
+    path = ex.waypoints(UP, target)
+    assert len(path) == 50  # 10 cm at 2 mm per 10 ms period
+    assert np.allclose(path[-1], target)
+    assert np.linalg.norm(np.diff(np.r_[UP[None, :3], path[:, :3]], axis=0), axis=1).max() <= 0.002 + 1e-9
+    turns = (Rotation.from_quat(path[1:, 3:]) * Rotation.from_quat(path[:-1, 3:]).inv()).magnitude()
+    assert turns.max() <= 0.01 + 1e-9
+    chunk = ex.chunk_waypoints(UP, np.stack([target, UP]))
+    assert len(chunk) == 100 and np.allclose(chunk[-1], UP)
