@@ -33,6 +33,10 @@ class CountingPolicy:
         rows[:, 7] = 1.0
         return rows
 
+    def action_chunk(self) -> np.ndarray:
+        """The next two keyframes: the reply carries them as a chunk."""
+        return np.zeros((2, 2, 9), np.float32)
+
     def keyframe_log(self) -> dict[str, Any]:
         return {"count": self.count, "retrieval_similarity": 0.5}
 

@@ -24,6 +24,7 @@ def test_openpi_client_gets_metadata_actions_and_errors(server: PolicyServer) ->
     assert reply["schema_version"] == 1 and reply["action"].shape == (2, 9)
     assert reply["actions"]["left"]["pose"][2] == pytest.approx(1.01)
     assert reply["diagnostics"] == {"count": 1, "retrieval_similarity": 0.5}
+    assert reply["chunk"].shape == (2, 2, 9)
     broken = valid_message()
     broken["cameras"]["front"]["depth"] = broken["cameras"]["front"]["depth"].astype(np.int32)
     with pytest.raises(RuntimeError, match="Error in inference server") as err:

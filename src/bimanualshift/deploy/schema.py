@@ -23,6 +23,7 @@ Observation (a msgpack map, arrays as ``codec`` packs them)::
 
 Reply: ``schema_version``, ``episode_id``, ``keyframe``, ``actions`` {arm: {pose (7,), gripper_open,
 ignore_collisions}}, ``action`` float32 (arms, 9) (the same rows, arms in the observation's order),
+``chunk`` float32 (arms, k, 9) where the policy plans k keyframes ahead (``action_chunk()``),
 ``timing`` {decode_ms, infer_ms, server_ms}, ``diagnostics`` (the policy's keyframe log: prior and final
 actions, holds, retrieval similarity).
 

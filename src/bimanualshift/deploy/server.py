@@ -159,6 +159,8 @@ class PolicyServer:
                 action = np.asarray(session.policy.act(obs), np.float32)
                 log_fn = getattr(session.policy, "keyframe_log", None)
                 diagnostics = log_fn() if callable(log_fn) else {}
+                chunk_fn = getattr(session.policy, "action_chunk", None)  # (arms, k, 9) where a policy plans ahead
+                chunk = np.asarray(chunk_fn(), np.float32) if callable(chunk_fn) else None
         except (ValueError, KeyError) as err:  # the policy's own refusal of this observation
             return error_frame("policy_error", "observation", "an observation this policy can act on",
                                f"{type(err).__name__}: {err}")
@@ -172,6 +174,8 @@ class PolicyServer:
         timing = {"decode_ms": 1e3 * (t1 - t0), "infer_ms": 1e3 * (t2 - t1)}
         reply = reply_message(parsed.episode_id, obs.keyframe_index, obs.scene.arm_names, action, timing,
                               _plain(diagnostics))
+        if chunk is not None:
+            reply["chunk"] = chunk
         reply["timing"]["server_ms"] = 1e3 * (time.perf_counter() - t0)
         session.requests += 1
         return pack(reply)
