@@ -65,3 +65,26 @@ def test_server_death_mid_episode_holds_and_reports() -> None:
         assert robot.env.keyframe_index == 1  # nothing was sent after the server went away
     finally:
         robot.disconnect()
+
+
+def test_a_calibration_file_gives_the_anchors_and_static_camera_poses() -> None:
+    from bimanualshift.deploy.robot import Calibration, observation_from_robot
+
+    robot = MujocoRobot("push_two_buttons")
+    robot.connect()
+    try:
+        context = robot.reset_episode(0)
+        truth = robot.calibration
+        moved = np.asarray(truth.extrinsics["front"])
+        moved[:3, 3] += 0.004
+        robot.calibration = Calibration(truth.intrinsics, {"front": moved.tolist()}, {},
+                                        {"left": [-0.56, 0.301, 0.912], "right": [-0.561, -0.3, 0.913]}, "a file")
+        robot.calibrated_from_file = True
+        obs = observation_from_robot(robot, robot.get_observation(), context, 0)
+        assert obs.scene.arm_bases == {"left": [-0.56, 0.301, 0.912], "right": [-0.561, -0.3, 0.913]}
+        front = obs.scene.camera_names.index("front")
+        assert np.allclose(obs.extrinsics[front], moved)  # the file's pose, not the simulator's
+        overhead = obs.scene.camera_names.index("overhead")  # not in the file: the simulator's own
+        assert np.allclose(obs.extrinsics[overhead], truth.extrinsics["overhead"])
+    finally:
+        robot.disconnect()
