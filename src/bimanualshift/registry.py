@@ -117,6 +117,10 @@ register_method(_residual_method(
     "paper_literal", "ablation: the residual moves translation and rotation only (Eq. 4 as written: no gripper "
     "residual, no hold)", retrieval=True, paper_literal=True))
 register_method(_residual_method(
+    "action_space", "variant: the residual adds logits to the frozen prior's own heat-map (a lattice around its "
+    "proposal) and rotation bins instead of moving its action (compare with no_refinement on validation seeds)",
+    refine=False, retrieval=True, action_space=True))
+register_method(_residual_method(
     "no_projection", "ablation: the prior sees the global scene", retrieval=True, use_projection=False))
 register_method(_frozen_prior_method(
     "no_residual", "ablation: the frozen prior per arm through the projection, no residual", use_projection=True))

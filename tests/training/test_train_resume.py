@@ -266,3 +266,21 @@ def test_a_residual_run_is_resumed_only_under_its_own_settings(demo_root: Path, 
     assert changed_settings(cfg(steps=4)) == []  # more steps extend the run
     with pytest.raises(ValueError, match=r"other settings \(model.paper_literal\).*own --out"):
         train_residual(cfg(paper_literal=True))
+
+
+def test_an_action_space_residual_trains_and_acts(demo_root: Path, tiny_prior: Path, tmp_path: Path) -> None:
+    best = train_residual(config_from_flat(TrainConfig, prior=str(tiny_prior), data=str(demo_root / "bimanual"),
+                                           validation_data=str(demo_root / "bimanual"), out=str(tmp_path), steps=4,
+                                           checkpoint_every=2, demos=2, action_space=True, action_window=5,
+                                           augment_copies=1))
+    policy = load_bimanualshift(best, default_text_encoder())
+    cfg = policy.residual.config
+    assert cfg.action_space and cfg.lattice_cells == 125 and cfg.rotation_bins == 36 and not cfg.output_gate
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert "prior_plus_residual_median_m" in summary["validation_translation_error"]
+    env = ManipulationEnv("push_two_buttons", image_size=64)
+    try:
+        record = rollout(env, policy, seed=200_000, max_keyframes=1)
+    finally:
+        env.close()
+    assert record.keyframes == 1

@@ -11,7 +11,7 @@ import torch
 
 from bimanualshift.data.frames import KeyframeObservation
 from bimanualshift.encoders.text import DEFAULT_SPEC, TextEncoder, default_text_encoder, make_text_encoder
-from bimanualshift.geometry.frames import compose_rotation
+from bimanualshift.geometry.frames import compose_rotation, euler_bins_to_quat
 from bimanualshift.memory.bank import MemoryBank, Retrieval
 from bimanualshift.memory.reference import ProgressAlignment, episode_key, reference_vector
 from bimanualshift.methods.prior_step import ArmStep, FrozenPriorStep, world_action
@@ -21,7 +21,7 @@ from bimanualshift.residual.checkpoint import (
     read_residual_config,
     save_residual_checkpoint,
 )
-from bimanualshift.residual.manager import ResidualPolicy, manager_input_rows
+from bimanualshift.residual.manager import ResidualPolicy, action_lattice, manager_input_rows
 
 MEMORY_FILE = "memory.safetensors"  # the frozen memory bank, beside the residual's weights
 
@@ -115,11 +115,29 @@ class BimanualShift:
                 own = step.proprio
                 last = world_action(step.frame, own[:3], own[3:7], float(own[7]), float(prior.ignore_collisions[0]))
             return last.copy(), True
-        position = prior.position[0].numpy() + out["translation"][0].numpy()
-        quat = compose_rotation(prior.quat[0].numpy(), out["rotation"][0].numpy())
+        if "translation_logits" in out:
+            position, quat = self.action_space_pose(step, out)
+        else:
+            position = prior.position[0].numpy() + out["translation"][0].numpy()
+            quat = compose_rotation(prior.quat[0].numpy(), out["rotation"][0].numpy())
         gripper = (float(torch.sigmoid(out["gripper_logit"][0])) if "gripper_logit" in out
                    else float(prior.gripper_open[0]))
         return world_action(step.frame, position, quat, gripper, float(prior.ignore_collisions[0])), False
+
+    def action_space_pose(self, step: ArmStep, out: dict[str, torch.Tensor]) -> tuple[np.ndarray, np.ndarray]:
+        """The action-space residual's pose: the arg-max of the prior's translation log-probabilities on the lattice
+        around its proposal plus the residual's logits (the centre cell is the proposal itself, sub-voxel
+        refinement included), and per Euler axis of its rotation bins' log-probabilities plus the residual's."""
+        prior, model = step.prior, self.prior_step.prior
+        cells = action_lattice(self.residual.config)
+        scores = model.translation_scores(prior, prior.position[:, None] + cells[None])[0]
+        chosen = int((scores + out["translation_logits"][0]).argmax())
+        position = prior.position[0].numpy() + cells[chosen].numpy()
+        logp = torch.log_softmax(prior.logits["rotation"][0].float(), -1)
+        bins = (logp + out["rotation_logits"][0]).argmax(-1)
+        if torch.equal(bins, logp.argmax(-1)):
+            return position, prior.quat[0].numpy()
+        return position, euler_bins_to_quat(bins.numpy(), model.rotation_bin_degrees).astype(np.float32)
 
     def act(self, obs: KeyframeObservation) -> np.ndarray:
         return np.stack([d.action for d in self.decide(obs)])

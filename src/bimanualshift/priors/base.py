@@ -123,6 +123,17 @@ class UnimanualPrior(nn.Module):
         raise NotImplementedError(f"{type(self).__name__} exposes no local features (local_feature_dim is 0)")
 
     @property
+    def rotation_bin_degrees(self) -> float:
+        """Width of the prior's rotation bins (0: it has no discrete rotation, so no action-space residual)."""
+        return float(getattr(self.config, "rotation_bin_degrees", 0.0))
+
+    def translation_scores(self, out: PriorOutput, points: torch.Tensor) -> torch.Tensor:
+        """(B, M) the log-probability the prior's translation distribution (``out.logits``) gives arm-frame
+        ``points`` (B, M, 3): the heat-map an action-space residual adds its logits to."""
+        raise NotImplementedError(f"{type(self).__name__} exposes no translation distribution: an action-space "
+                                  "residual needs a heat-map prior (PerAct-style or RVT-style)")
+
+    @property
     def proposal_feature_dim(self) -> int:
         """Width of ``proposal_features``: by default the local features at the proposed point (0: none)."""
         return self.local_feature_dim

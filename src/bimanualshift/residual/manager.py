@@ -41,11 +41,24 @@ class ResidualConfig:
     # Width of the frozen prior's features at and around its own proposal (``PriorOutput.proposal_features``), the
     # arm-specific visual input of Eq. 6; 0 = not read (checkpoints from before it).
     proposal_dim: int = 0
+    # The action-space residual (docs/residual.md): instead of moving the prior's action continuously (Eq. 4), G
+    # adds logits to the prior's own distributions: its translation log-probabilities on a lattice of
+    # ``action_window``^3 cells ``action_cell_m`` apart centred on its proposal, and its rotation bins
+    # (``rotation_bins`` per Euler axis, the prior's). The final action is the arg-max of the sums.
+    action_space: bool = False
+    action_window: int = 9
+    action_cell_m: float = 0.02
+    rotation_bins: int = 0
+
+    @property
+    def lattice_cells(self) -> int:
+        return self.action_window**3 if self.action_space else 0
 
     @property
     def extra_outputs(self) -> int:
         """G's outputs beyond the 6 of Eq. 4 (translation, rotation)."""
-        return int(self.gripper_residual) + int(self.hold)
+        return int(self.gripper_residual) + int(self.hold) + self.lattice_cells + 3 * self.rotation_bins * int(
+            self.action_space)
 
     def layout(self) -> dict[str, slice]:
         """Where each part of ``manager_inputs``'s row lies."""
@@ -116,7 +129,7 @@ class ResidualPolicy(nn.Module):
         nn.init.zeros_(self.g.bias)
         if config.hold:  # ... and no arm held (a hold logit of -4 is a 2 % hold probability)
             with torch.no_grad():
-                self.g.bias[-1] = HOLD_INIT_LOGIT
+                self.g.bias[6 + int(config.gripper_residual)] = HOLD_INIT_LOGIT
 
     @torch.no_grad()
     def fit_normalisation(self, inputs: torch.Tensor) -> None:
@@ -149,7 +162,22 @@ class ResidualPolicy(nn.Module):
             column += 1
         if c.hold:
             out["hold_logit"] = residual[:, column]
+            column += 1
+        if c.action_space:  # logits added to the prior's lattice scores and rotation bins
+            out["translation_logits"] = residual[:, column: column + c.lattice_cells]
+            column += c.lattice_cells
+            out["rotation_logits"] = residual[:, column: column + 3 * c.rotation_bins].view(-1, 3, c.rotation_bins)
         return out
+
+
+def action_lattice(config: ResidualConfig) -> torch.Tensor:
+    """(W^3, 3) the action-space residual's cell offsets from the prior's proposal (metres); the centre cell,
+    index W^3 // 2, is the proposal itself."""
+    w = config.action_window
+    if w < 1 or w % 2 == 0:
+        raise ValueError(f"action_window must be odd and >= 1, got {w}")
+    steps = (torch.arange(w, dtype=torch.float32) - w // 2) * config.action_cell_m
+    return torch.stack(torch.meshgrid(steps, steps, steps, indexing="ij"), -1).reshape(-1, 3)
 
 
 def manager_inputs(features: torch.Tensor, proprio: torch.Tensor, other_proprio: torch.Tensor,

@@ -115,8 +115,14 @@ class ResidualModelConfig:
     # The Manager reads the frozen prior's features at and around its own proposal (Eq. 6's arm-specific visual
     # input: the voxel prior's maps at its heat-map peak and one voxel around, the RVT prior's per-view maps).
     proposal_features: bool = True
+    # The action-space residual: logits added to the prior's translation heat-map (on a lattice of action_window^3
+    # cells action_cell_m apart around its proposal) and rotation bins, instead of a continuous move (Eq. 4).
+    action_space: bool = False
+    action_window: int = 9
+    action_cell_m: float = 0.02
 
-    def residual_config(self, feature_dim: int, text_dim: int, proposal_dim: int = 0) -> ResidualConfig:
+    def residual_config(self, feature_dim: int, text_dim: int, proposal_dim: int = 0,
+                        rotation_bins: int = 0) -> ResidualConfig:
         """The network's config: the one place these switches become the residual's widths and flags
         (``ResidualConfig``'s own defaults are what a checkpoint written before a field existed meant)."""
         from bimanualshift.memory.reference import REFERENCE_DIM
@@ -128,9 +134,13 @@ class ResidualModelConfig:
                               goal_dim=GOAL_GEOMETRY_DIM if self.goal_geometry else 0,
                               phase_dim=self.phase_slots * len(ARM_ORDER), normalise_inputs=self.normalise_inputs,
                               read_prior_features=self.prior_features, geometric_skip=self.geometric_skip,
-                              output_gate=self.output_gate, gripper_residual=not self.paper_literal,
-                              hold=not self.paper_literal,
-                              proposal_dim=proposal_dim if self.proposal_features else 0)
+                              # the gate scales continuous moves; an action-space residual makes none
+                              output_gate=self.output_gate and not self.action_space,
+                              gripper_residual=not self.paper_literal, hold=not self.paper_literal,
+                              proposal_dim=proposal_dim if self.proposal_features else 0,
+                              action_space=self.action_space, action_window=self.action_window,
+                              action_cell_m=self.action_cell_m,
+                              rotation_bins=rotation_bins if self.action_space else 0)
 
 
 @dataclass

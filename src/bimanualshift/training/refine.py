@@ -200,6 +200,10 @@ def refine(cfg: RefineConfig, text_encoder: TextEncoder | None = None) -> Path:
     # the demos it was trained on (a flat train_config of an older checkpoint reads too)
     train_cfg = config_from_dict(TrainConfig, meta["train_config"], checkpoint / "config.json").dataset
     policy = load_bimanualshift(checkpoint, text_encoder)
+    if policy.residual.config.action_space:
+        raise ValueError(f"{checkpoint} is an action-space residual: its corrections would be lattice cells and "
+                         "rotation bins, which refinement does not build yet; refine a continuous residual "
+                         "(trained with --action-space false)")
     task = meta["task"]
 
     # 1-3: rollouts on training scenes, corrections, successes into the (unfrozen) bank.

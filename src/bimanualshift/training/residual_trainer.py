@@ -18,7 +18,7 @@ import torch.nn.functional as F
 
 from bimanualshift.data.episode import list_episodes
 from bimanualshift.encoders.text import TextEncoder, default_text_encoder, make_text_encoder
-from bimanualshift.geometry.frames import rotation_difference
+from bimanualshift.geometry.frames import quat_to_euler_bins, rotation_difference
 from bimanualshift.geometry.voxels import VoxelGrid
 from bimanualshift.memory.bank import MemoryBank, MemoryEntry
 from bimanualshift.memory.reference import REFERENCE_DIM, ProgressAlignment, episode_key, reference_vector
@@ -26,7 +26,7 @@ from bimanualshift.methods.bimanualshift import MEMORY_FILE, save_residual
 from bimanualshift.methods.prior_step import FrozenPriorStep
 from bimanualshift.perception.arm_samples import ArmSamples, build_arm_samples
 from bimanualshift.priors.base import UnimanualPrior
-from bimanualshift.residual.manager import ResidualConfig, ResidualPolicy, manager_input_rows
+from bimanualshift.residual.manager import ResidualConfig, ResidualPolicy, action_lattice, manager_input_rows
 from bimanualshift.residual.output_gate import choose_output_scale, reset_output_scale
 from bimanualshift.residual.skills import SkillBasis
 from bimanualshift.training.augment import (
@@ -54,6 +54,12 @@ class ResidualData:
     memory: MemoryBank | None = None  # the bank the references came from (built here with ``build_memory``)
     gripper: torch.Tensor | None = None  # (N,) the expert's gripper: 1 open, 0 closed
     hold: torch.Tensor | None = None  # (N,) 1 where the expert keeps this arm's previous action (``hold_labels``)
+    # an action-space residual's: the prior's log-probabilities on the lattice around its proposal (N, W^3) and of
+    # its rotation bins (N, 3, R); the lattice cell nearest the expert's position (N,) and the expert's bins (N, 3)
+    prior_translation: torch.Tensor | None = None
+    prior_rotation: torch.Tensor | None = None
+    target_cell: torch.Tensor | None = None
+    target_bins: torch.Tensor | None = None
 
     def __len__(self) -> int:
         return len(self.inputs)
@@ -64,7 +70,7 @@ class ResidualData:
         return ResidualData(self.inputs[index], self.translation[index], self.rotation[index], **pick)
 
 
-TARGET_FIELDS = ("gripper", "hold")
+TARGET_FIELDS = ("gripper", "hold", "prior_translation", "prior_rotation", "target_cell", "target_bins")
 # An arm holds at a keyframe when its target repeats its previous keyframe's: the same gripper state, within
 # these distances (the experts repeat an idle arm's action exactly; a moving arm's keyframes are centimetres apart).
 HOLD_TOLERANCE_M = 0.005
@@ -134,7 +140,7 @@ def residual_data(config: ResidualConfig, paths: list[Path], prior_step: FrozenP
         proprio = transform_poses(torch.as_tensor(samples.proprio), grid, yaw, shift)
         other = torch.as_tensor(samples.other_proprio)
         other = transform_poses(other, grid, yaw, shift) if two_arms else other
-        features, base, proposal = [], [], []
+        features, base, proposal, lattice_scores, rotation_logp = [], [], [], [], []
         with torch.no_grad():
             for start in range(0, n, 32):
                 sl = slice(start, start + 32)
@@ -145,6 +151,10 @@ def residual_data(config: ResidualConfig, paths: list[Path], prior_step: FrozenP
                 base.append(out.base_action())
                 if config.proposal_dim:
                     proposal.append(prior_step.prior.proposal_features(*batch, out))
+                if config.action_space:
+                    cells = out.position[:, None] + action_lattice(config)[None]
+                    lattice_scores.append(prior_step.prior.translation_scores(out, cells))
+                    rotation_logp.append(F.log_softmax(out.logits["rotation"].float(), -1))
         features_t, base_t = torch.cat(features), torch.cat(base)
         proposal_t = torch.cat(proposal) if proposal else None
         if copy == 0:
@@ -165,9 +175,19 @@ def residual_data(config: ResidualConfig, paths: list[Path], prior_step: FrozenP
         quat = transform_quats(target_quat, yaw).numpy()
         rotation = torch.as_tensor(np.stack([rotation_difference(t, b) for t, b in zip(quat, base_t[:, 3:7].numpy())]),
                                    dtype=torch.float32)
-        parts.append(ResidualData(inputs, translation, rotation, gripper=gripper, hold=hold))
+        action_targets = {}
+        if config.action_space:
+            moved = transform_points(target_pos, grid, yaw, shift)
+            cells = base_t[:, None, :3] + action_lattice(config)[None]
+            degrees = prior_step.prior.rotation_bin_degrees
+            action_targets = {
+                "prior_translation": torch.cat(lattice_scores), "prior_rotation": torch.cat(rotation_logp),
+                "target_cell": (cells - moved[:, None]).norm(dim=-1).argmin(-1),
+                "target_bins": torch.as_tensor(np.stack([quat_to_euler_bins(q, degrees) for q in quat]))}
+        parts.append(ResidualData(inputs, translation, rotation, gripper=gripper, hold=hold, **action_targets))
     fields = ("inputs", "translation", "rotation", *TARGET_FIELDS)
-    merged = {f: torch.cat([getattr(p, f) for p in parts]) for f in fields}
+    merged = {f: (None if getattr(parts[0], f) is None else torch.cat([getattr(p, f) for p in parts]))
+              for f in fields}
     return ResidualData(**merged, memory=memory)
 
 
@@ -262,9 +282,18 @@ def validation_losses(residual: ResidualPolicy, data: ResidualData, weights: Los
 
 def bc_loss(out: dict[str, torch.Tensor], data: ResidualData, weights: LossWeights) -> dict[str, torch.Tensor]:
     """Eq. 12 on the final action: a = prior + G(v), so the error of a equals the residual's error; with the
-    coordination outputs, the binary cross-entropy of the final gripper logit and of the hold logit too."""
-    trans = ((out["translation"] - data.translation) ** 2).sum(-1).mean()
-    rot = ((out["rotation"] - data.rotation) ** 2).sum(-1).mean()
+    coordination outputs, the binary cross-entropy of the final gripper logit and of the hold logit too. An
+    action-space residual's pose terms are cross-entropies of the summed logits (the prior's log-probabilities +
+    the residual's) against the expert's lattice cell and rotation bins."""
+    if "translation_logits" in out:
+        if data.target_cell is None:
+            raise ValueError("this residual works in the prior's action space but the data has no lattice targets")
+        trans = F.cross_entropy(data.prior_translation + out["translation_logits"], data.target_cell)
+        r = data.prior_rotation.shape[-1]
+        rot = F.cross_entropy((data.prior_rotation + out["rotation_logits"]).reshape(-1, r), data.target_bins.flatten())
+    else:
+        trans = ((out["translation"] - data.translation) ** 2).sum(-1).mean()
+        rot = ((out["rotation"] - data.rotation) ** 2).sum(-1).mean()
     losses = {"translation": trans, "rotation": rot}
     total = trans + weights.beta * rot
     for name, logit, target, weight in (("gripper", "gripper_logit", data.gripper, weights.gripper),
@@ -280,7 +309,13 @@ def bc_loss(out: dict[str, torch.Tensor], data: ResidualData, weights: LossWeigh
 def translation_report(residual: ResidualPolicy, data: ResidualData) -> dict[str, float]:
     """How far the prior alone and prior + residual land from the expert's position (validation data)."""
     with torch.no_grad():
-        corrected = data.translation - residual(data.inputs)["translation"]
+        out = residual(data.inputs)
+        if "translation_logits" in out:  # the chosen lattice cell's offset is the residual's move
+            cells = action_lattice(residual.config)
+            chosen = (data.prior_translation + out["translation_logits"]).argmax(-1)
+            corrected = data.translation - cells[chosen]
+        else:
+            corrected = data.translation - out["translation"]
     report = {}
     for name, err in (("prior", data.translation.norm(dim=-1)), ("prior_plus_residual", corrected.norm(dim=-1))):
         report[f"{name}_median_m"] = round(float(err.median()), 4)
@@ -353,7 +388,11 @@ def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Pat
     if not paths:
         raise FileNotFoundError(f"no bimanual demos for {cfg.dataset.task} under {cfg.dataset.data}; run "
                                 f"`bimanualshift collect --task {cfg.dataset.task} --out {cfg.dataset.data}` first")
-    rcfg = cfg.model.residual_config(prior.feature_dim, text_encoder.dim, prior.proposal_feature_dim)
+    bins = int(round(360 / prior.rotation_bin_degrees)) if prior.rotation_bin_degrees else 0
+    if cfg.model.action_space and not bins:
+        raise ValueError(f"the prior {cfg.prior} has no rotation bins and no translation heat-map: an action-space "
+                         "residual needs a PerAct-style or RVT-style prior (train with --action-space false)")
+    rcfg = cfg.model.residual_config(prior.feature_dim, text_encoder.dim, prior.proposal_feature_dim, bins)
     if cfg.model.proposal_features and not prior.proposal_feature_dim:
         raise ValueError(f"the prior {cfg.prior} exposes no local features for the Manager to read at its proposal; "
                          "train with --proposal-features false")

@@ -200,6 +200,17 @@ class PerActPrior(UnimanualPrior):
         decoded.proposal_features = self.proposal_maps(out, decoded.position)
         return decoded
 
+    def translation_scores(self, out: PriorOutput, points: torch.Tensor) -> torch.Tensor:
+        """The heat-map's log-softmax at the voxel of each point; points outside the grid score -1e4."""
+        s = self.config.voxel_size
+        logp = F.log_softmax(out.logits["translation"].float(), -1)  # (B, S^3)
+        flat = points.detach().cpu().numpy().reshape(-1, 3)
+        idx = self.grid.point_to_index(flat)
+        linear = torch.as_tensor((idx[:, 0] * s + idx[:, 1]) * s + idx[:, 2]).view(points.shape[:2])
+        scores = torch.gather(logp, 1, linear)
+        inside = torch.as_tensor(self.grid.inside(flat)).view(points.shape[:2])
+        return torch.where(inside, scores, torch.full_like(scores, -1e4))
+
     def discrete_targets(self, actions: dict[str, torch.Tensor]) -> dict[str, torch.Tensor]:
         """Continuous arm-frame targets (first keyframe of the chunk) -> voxel index, Euler bins, flags."""
         c = self.config

@@ -65,6 +65,15 @@ def sample_maps(maps: torch.Tensor, points: torch.Tensor, centre: torch.Tensor, 
     return out.view(b, v * d)
 
 
+def view_scores(heat: torch.Tensor, centre: torch.Tensor, half: torch.Tensor, points: torch.Tensor) -> torch.Tensor:
+    """(B, M) the sum over views of the heat-maps' (B, V, S, S) log-probabilities where points (B, M, 3) project."""
+    b, v, s, _ = heat.shape
+    rows, cols, _ = project(points, centre, half, s)
+    logp = F.log_softmax(heat.flatten(2), -1).view(b * v, 1, s, s)
+    where = torch.stack([cols / s * 2 - 1, rows / s * 2 - 1], -1).reshape(b * v, -1, 1, 2)
+    return F.grid_sample(logp, where, align_corners=False, padding_mode="border").view(b, v, -1).sum(1)
+
+
 def lift(heat: torch.Tensor, centre: torch.Tensor, half: torch.Tensor, grid: int) -> torch.Tensor:
     """One 3-D point (B, 3) from the views' heat-maps (B, V, S, S): the candidate of a grid^3 lattice over the cube
     whose projections score highest (sum of the views' log-probabilities), refined to the score-weighted mean of
@@ -73,11 +82,7 @@ def lift(heat: torch.Tensor, centre: torch.Tensor, half: torch.Tensor, grid: int
     lin = (torch.arange(grid, dtype=centre.dtype) + 0.5) / grid * 2 - 1
     local = torch.stack(torch.meshgrid(lin, lin, lin, indexing="ij"), -1).reshape(-1, 3)  # (G^3, 3)
     candidates = centre[:, None] + local[None] * half[:, None, None]  # (B, G^3, 3)
-    rows, cols, _ = project(candidates, centre, half, s)
-    logp = F.log_softmax(heat.flatten(2), -1).view(b * v, 1, s, s)
-    where = torch.stack([cols / s * 2 - 1, rows / s * 2 - 1], -1).reshape(b * v, -1, 1, 2)
-    score = F.grid_sample(logp, where, align_corners=False, padding_mode="border").view(b, v, -1).sum(1)
-    score = score.view(b, grid, grid, grid)
+    score = view_scores(heat, centre, half, candidates).view(b, grid, grid, grid)
     best = score.flatten(1).argmax(-1)
     i, j, k = best // (grid * grid), (best // grid) % grid, best % grid
     padded = F.pad(score, (1, 1, 1, 1, 1, 1), value=float("-inf"))
@@ -182,6 +187,11 @@ class RVTPrior(UnimanualPrior):
             logits={"translation": out["fine"]["heat"], "translation_coarse": out["coarse"]["heat"],
                     "rotation": out["rotation"], "gripper": out["gripper"], "collision": out["collision"]},
             coarse_position=out["coarse_position"], proposal_features=proposal)
+
+    def translation_scores(self, out: PriorOutput, points: torch.Tensor) -> torch.Tensor:
+        """The coarse stage's lifted score (its views cover the whole workspace; the fine cube only a corner)."""
+        centre, half = self._coarse_cube(len(points))
+        return view_scores(out.logits["translation_coarse"].float(), centre, half, points.float())
 
     def local_features(self, voxels: torch.Tensor, proprio: torch.Tensor, text: torch.Tensor,
                        points: torch.Tensor) -> torch.Tensor:
