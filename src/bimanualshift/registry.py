@@ -185,6 +185,10 @@ register_method(_backbone_method(
     "scratch_voxel", "baseline: a PerAct2-style voxel policy for both arms trained from scratch on the bimanual demos "
     "(global scene, no prior, no residual)", "train_scratch_voxel", "from_scratch:ScratchVoxelPolicy", _BACKBONE))
 register_method(_backbone_method(
+    "voxactb", "baseline: VoxAct-B-style, a voxel policy from scratch on a region of interest found from the goal "
+    "masks (instead of a VLM), one network for the acting and the stabilising arm", "train_voxactb",
+    "voxactb:VoxActBPolicy", _BACKBONE))
+register_method(_backbone_method(
     "peract_lf", "baseline: PerAct-LF, leader (right) and follower (left) networks fine-tuned from the single-arm "
     "prior on the bimanual demos; the follower conditions on the leader's action",
     "train_leader_follower", "leader_follower_tuned:LeaderFollowerPolicy", LeaderFollowerTrainConfig(),

@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 from tqdm import tqdm
 
-from bimanualshift.data.episode import read_episode
+from bimanualshift.data.episode import Episode, read_episode
 from bimanualshift.data.frames import KeyframeObservation
 from bimanualshift.geometry.frames import ArmFrame
 from bimanualshift.perception.observation import ArmObservationBuilder
@@ -39,10 +40,14 @@ class ArmSamples:
 
 
 def build_arm_samples(paths: list[Path], builder: ArmObservationBuilder, max_keyframes: int,
-                      desc: str = "voxelise") -> ArmSamples:
+                      desc: str = "voxelise", transform: Callable[[Episode], Episode] | None = None) -> ArmSamples:
+    """Every (keyframe, arm) of the episodes as one arm's sample; ``transform`` rewrites each episode first (a
+    baseline that re-anchors the arms' frames, e.g. on a region of interest)."""
     rows: dict[str, list] = {k: [] for k in ArmSamples.__dataclass_fields__}
     for e, path in enumerate(tqdm(paths, desc=desc, unit="ep")):
         episode = read_episode(path)
+        if transform is not None:
+            episode = transform(episode)
         for k in range(episode.num_keyframes):
             obs = KeyframeObservation.from_episode(episode, k)
             per_arm = builder.build(obs)

@@ -15,6 +15,7 @@ from bimanualshift.methods.baselines.from_scratch import ACT_SPEC, DP_SPEC
 from bimanualshift.methods.baselines.from_scratch import SPEC as SCRATCH_VOXEL_SPEC
 from bimanualshift.methods.baselines.leader_follower_tuned import PAIR_SPECS
 from bimanualshift.methods.baselines.network_spec import VoxelNetworkSpec
+from bimanualshift.methods.baselines.voxactb import SPEC as VOXACTB_SPEC
 from bimanualshift.training.baseline_configs import BackboneTrainConfig, LeaderFollowerTrainConfig
 from bimanualshift.training.finetune_backbone import train_voxel_network
 from bimanualshift.training.request import TrainRequest
@@ -39,6 +40,12 @@ def train_scratch_dp(request: TrainRequest, cfg: BackboneTrainConfig) -> Path:
 def train_scratch_act(request: TrainRequest, cfg: BackboneTrainConfig) -> Path:
     """ACT (CVAE transformer over action chunks) for both arms, from scratch."""
     return _train_one(ACT_SPEC, request, cfg)
+
+
+def train_voxactb(request: TrainRequest, cfg: BackboneTrainConfig) -> Path:
+    """The VoxAct-B-style network (a region of interest from the goal masks, acting / stabilising roles), from
+    scratch."""
+    return _train_one(VOXACTB_SPEC, request, cfg)
 
 
 def train_anybimanual(request: TrainRequest, cfg: BackboneTrainConfig) -> Path:

@@ -53,7 +53,8 @@ def arm_frames_of(paths: list[Path]) -> list[dict[str, ArmFrame]]:
 def _batches(spec: VoxelNetworkSpec, paths: list[Path], builder: ArmObservationBuilder, model: UnimanualPrior,
              desc: str) -> PriorBatches:
     grid, horizon = builder.grid, model.action_horizon
-    samples = build_arm_samples(paths, builder, model.config.max_keyframes, desc=desc)
+    samples = build_arm_samples(paths, builder, model.config.max_keyframes, desc=desc,
+                                transform=spec.episode_transform)
     if spec.extra_proprio is not None:
         samples = with_extra_proprio(samples, spec.extra_proprio(samples, arm_frames_of(paths)))
     samples = select_arms(samples, spec.arms)

@@ -12,6 +12,7 @@ from dataclasses import asdict, dataclass, replace
 import numpy as np
 import torch
 
+from bimanualshift.data.episode import Episode
 from bimanualshift.geometry.frames import ArmFrame
 from bimanualshift.perception.arm_samples import ArmSamples
 from bimanualshift.priors.base import UnimanualPrior, build_prior
@@ -32,6 +33,9 @@ class VoxelNetworkSpec:
     init_from_prior: bool = False  # start from the request's prior, or from random weights
     kind: str = "peract"  # the network: peract or diffusion (a fine-tuned prior must be of this kind)
     build: Callable[[UnimanualPrior | None, int, str], UnimanualPrior] | None = None  # (prior, extra_dim, size)
+    # each training episode rewritten before its samples are built (``voxactb``: the arms' frames re-anchored on
+    # the region of interest); the policy applies the same rewrite to its observations
+    episode_transform: Callable[[Episode], Episode] | None = None
 
 
 def with_extra_proprio(samples: ArmSamples, extra: np.ndarray) -> ArmSamples:
