@@ -23,7 +23,8 @@ from bimanualshift.evaluation.targets import study_targets
 from bimanualshift.sim.perturbations import PRESETS
 from bimanualshift.utils.io import atomic_write_text
 
-BASELINES = ["bimanualshift", "peract_lf", "dp_lf", "scratch_voxel", "scratch_dp", "scratch_act", "anybimanual"]
+BASELINES = ["bimanualshift", "peract_lf", "dp_lf", "scratch_voxel", "scratch_dp", "scratch_act", "anybimanual",
+             "voxactb"]
 ABLATIONS = ["no_projection", "no_residual", "no_retrieval", "no_refinement", "unstructured", "paper_literal"]
 FEW_SHOT_TASKS = ["push_two_buttons", "lift_ball", "pick_up_plate"]
 TABLE1_TASKS = ("take_tray_out_of_oven", "straighten_rope", "sweep_to_dustpan", "lift_ball", "push_two_buttons",
