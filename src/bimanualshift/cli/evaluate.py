@@ -181,7 +181,7 @@ def plot(args: PlotArgs) -> None:
 
 @dataclass
 class ReportArgs:
-    readme: list[str] = field(default_factory=lambda: ["README.md"])  # files with results blocks
+    readme: list[str] = field(default_factory=lambda: ["README.md", "docs/results.md"])  # files with results blocks
     results: str = "results"  # results directory
     index: bool = False  # also write results/README.md: every result file's table
 

@@ -16,24 +16,6 @@ from bimanualshift.utils.io import atomic_write_text
 BLOCK = re.compile(r"(<!-- results:(?P<name>[\w/.-]+) -->\n)(?P<body>.*?)(<!-- /results:(?P=name) -->)", re.S)
 
 
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
 def result_file(results_dir: Path, name: str) -> Path:
     for candidate in (results_dir / name / "summary.json", results_dir / f"{name}.json"):
         if candidate.is_file():
