@@ -208,3 +208,17 @@ def test_refined_methods_are_the_full_method_and_its_ablations_but_no_refinement
     refined = {name for name, spec in METHODS.items() if spec.refine}
     assert {"bimanualshift", "no_projection", "no_retrieval", "unstructured", "paper_literal"} <= refined
     assert "no_refinement" not in refined and "no_residual" not in refined and "peract_lf" not in refined
+
+
+def test_design_choices_roll_out_on_validation_seeds_never_test_seeds(demo_root: Path, tmp_path: Path) -> None:
+    from bimanualshift.evaluation.bench import VALIDATION_ROLLOUT_START
+
+    cfg = BenchConfig(tasks=["push_two_buttons"], methods=["no_residual"], demos=1, validation_demos=1, episodes=2,
+                      workers=1, data=str(tmp_path / "data"), runs=str(tmp_path / "runs"), out=str(tmp_path / "out"),
+                      videos=0, max_keyframes=1, evaluate_on="validation")
+    summary = json.loads(run_bench(cfg, command="test").read_text())
+    rollouts = [100_000 + VALIDATION_ROLLOUT_START, 100_001 + VALIDATION_ROLLOUT_START]
+    assert summary["seeds"]["validation_rollouts"] == rollouts and "test" not in summary["seeds"]
+    assert {e["seed"] for e in read_episodes(tmp_path / "out" / "episodes.jsonl")} == set(rollouts)
+    with pytest.raises(ValueError, match="evaluate_on"):
+        run_bench(replace(cfg, evaluate_on="train", out=str(tmp_path / "other")))

@@ -30,6 +30,7 @@ from bimanualshift.utils.jsonl import append_record, read_records
 from bimanualshift.utils.process_cache import cached
 from bimanualshift.utils.workers import EXECUTORS, run_jobs
 
+VALIDATION_ROLLOUT_START = 10_000  # validation rollouts' seeds: far past any validation demo's
 DEFAULT_METHODS = ["bimanualshift", "no_projection", "no_residual", "no_retrieval", "no_refinement", "unstructured",
                    "paper_literal", "frozen_prior_per_arm", "scratch_voxel"]
 
@@ -41,6 +42,9 @@ class BenchConfig:
     demos: int = 30
     validation_demos: int = 5
     episodes: int = 100  # test seeds per task
+    # "validation": roll out on validation seeds instead (design choices, e.g. the action-space residual against
+    # the continuous one, are made there, never on test seeds); they start past the validation demos' seeds
+    evaluate_on: str = "test"
     prior: str = "peract_suite"
     steps: int = 0  # training steps of every method not in method_steps; 0: each method's own (MethodSpec.steps)
     method_steps: dict = field(default_factory=lambda: {"scratch_voxel": 3000})  # per-method training steps
@@ -97,7 +101,7 @@ def _request(cfg: BenchConfig, task: str, method: str, training: bool = True) ->
 # of one setting and a training run the weights of one request: reusing either under other settings would put,
 # say, 30-demo episodes in a 100-demo table without a word.
 EPISODE_SETTINGS = ("demos", "validation_demos", "prior", "steps", "method_steps", "max_keyframes", "seed",
-                    "continue_from", "refine_episodes")
+                    "continue_from", "refine_episodes", "evaluate_on")
 SETTINGS_FILE = "bench_settings.json"
 REQUEST_FILE = "bench_request.json"
 
@@ -281,8 +285,12 @@ def run_bench(cfg: BenchConfig, command: str | None = None) -> Path:
     out = Path(cfg.out)
     (out / "videos").mkdir(parents=True, exist_ok=True)
     check_results_folder(cfg)
+    if cfg.evaluate_on not in ("test", "validation"):
+        raise ValueError(f"evaluate_on must be test or validation, got {cfg.evaluate_on!r}")
+    # "test" below names the seeds the methods are rolled out on; the summary records which split they are
     seeds = {"train": split_seeds("train", cfg.demos), "validation": split_seeds("validation", cfg.validation_demos),
-             "test": split_seeds("test", cfg.episodes)}
+             "test": split_seeds("test", cfg.episodes) if cfg.evaluate_on == "test"
+             else split_seeds("validation", cfg.episodes, VALIDATION_ROLLOUT_START)}
 
     jobs = []
     from bimanualshift.sim.perturbations import preset
@@ -328,7 +336,9 @@ def run_bench(cfg: BenchConfig, command: str | None = None) -> Path:
         title = f"{cfg.demos} demos, {cfg.episodes} test episodes per task (95 % Wilson intervals)"
         draw_plots(out, rows, title)
         atomic_write_text(out / "table.md", bench_table(rows) + "\n" + stage_table(rows))
-    write_result(out / "summary.json", command, seeds, started, rows, bench=True, config=asdict(cfg),
+    recorded = seeds if cfg.evaluate_on == "test" else {
+        "train": seeds["train"], "validation": seeds["validation"], "validation_rollouts": seeds["test"]}
+    write_result(out / "summary.json", command, recorded, started, rows, bench=True, config=asdict(cfg),
                  refinement=refinement_records(cfg, tasks),
                  methods={m: METHODS[m].description for m in cfg.methods},
                  notes=f"prior {cfg.prior}; episodes stop at {KEYFRAME_BUDGET}x the expert's keyframes on the "
