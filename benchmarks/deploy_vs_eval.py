@@ -36,7 +36,7 @@ def offline(policy, task: str, seeds: list[int]) -> list[tuple[bool, list]]:  # 
     for seed in seeds:
         executed: list = []
 
-        def act(k: int, frame: object) -> np.ndarray:
+        def act(k: int, frame: object, executed: list = executed) -> np.ndarray:
             executed.append(np.asarray(policy.act(frame), np.float32).tolist())
             return np.asarray(executed[-1], np.float32)
 
