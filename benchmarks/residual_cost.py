@@ -70,7 +70,8 @@ def main() -> None:
     rows = [{"what": "cached pool: prior outputs of every (keyframe, arm, copy)", "demos": args.demos,
              "copies": 1 + args.copies, "samples": samples, "seconds": round(pool_s, 1),
              "ms_per_sample": round(1e3 * pool_s / samples, 1)},
-            {"what": "residual optimisation step (batch 4, LAMB)", "steps": args.steps, "ms_per_step": round(step_ms, 2)}]
+            {"what": "residual optimisation step (batch 4, LAMB)", "steps": args.steps,
+             "ms_per_step": round(step_ms, 2)}]
     for row in rows:
         print(row)
     write_result(args.out, "python " + " ".join(shlex.quote(a) for a in sys.argv), {"train": split_seeds(
