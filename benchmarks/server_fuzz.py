@@ -22,13 +22,11 @@ from pathlib import Path
 
 from tqdm import tqdm
 
-from bimanualshift.data.frames import KeyframeObservation, scene_of_env
 from bimanualshift.deploy.client import PolicyClient, ServerUnavailable
 from bimanualshift.deploy.malformed import CLASSES, corpus
 from bimanualshift.deploy.process import ServerProcess
-from bimanualshift.deploy.schema import observation_message
+from bimanualshift.deploy.sim_robot import first_observation_message
 from bimanualshift.evaluation.report import write_result
-from bimanualshift.sim.env import ManipulationEnv
 
 
 def main() -> None:
@@ -41,10 +39,7 @@ def main() -> None:
     args = parser.parse_args()
     started = time.time()
 
-    env = ManipulationEnv("push_two_buttons")
-    obs, _ = env.reset(seed=0)
-    valid = observation_message(KeyframeObservation.from_env(obs, scene_of_env(env)), "fuzz")
-    env.close()
+    valid = first_observation_message("push_two_buttons", 0, "fuzz")
     limit = int(args.limit_mb * 2**20)
     token = "fuzz-token-" + "x" * 24
     with tempfile.TemporaryDirectory() as tmp:

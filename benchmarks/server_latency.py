@@ -20,12 +20,10 @@ import time
 
 import numpy as np
 
-from bimanualshift.data.frames import KeyframeObservation, scene_of_env
 from bimanualshift.deploy.client import PolicyClient
 from bimanualshift.deploy.process import ServerProcess
-from bimanualshift.deploy.schema import observation_message
+from bimanualshift.deploy.sim_robot import first_observation_message
 from bimanualshift.evaluation.report import write_result
-from bimanualshift.sim.env import ManipulationEnv
 
 
 def run_clients(url: str, message: dict, clients: int, requests: int) -> dict:
@@ -74,10 +72,7 @@ def main() -> None:
     parser.add_argument("--out", default="results/server_latency.json")
     args = parser.parse_args()
     started = time.time()
-    env = ManipulationEnv("push_two_buttons")
-    obs, _ = env.reset(seed=0)
-    message = observation_message(KeyframeObservation.from_env(obs, scene_of_env(env)), "latency")
-    env.close()
+    message = first_observation_message("push_two_buttons", 0, "latency")
     server = ServerProcess(["--prior", args.prior, "--method", "no_residual"], threads=2)
     url = f"ws://127.0.0.1:{server.port}"
     try:

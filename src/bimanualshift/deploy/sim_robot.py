@@ -130,3 +130,17 @@ def truth_calibration(env: ManipulationEnv, obs: dict[str, Any]) -> Calibration:
         extrinsics={c: np.asarray(obs["extrinsics"][c]).tolist() for c in env.camera_names if c not in wrist},
         arm_bases={arm: [float(v) for v in f.position] for arm, f in env.arm_frames.items()},
         source="simulator truth")
+
+
+def first_observation_message(task: str, seed: int, episode_id: str) -> dict[str, Any]:
+    """A real observation message: the task's scene on ``seed`` as the simulated robot sends it (benchmarks and
+    fuzzing use it as the valid request)."""
+    from bimanualshift.data.frames import KeyframeObservation, scene_of_env
+    from bimanualshift.deploy.schema import observation_message
+
+    env = ManipulationEnv(task)
+    try:
+        obs, _ = env.reset(seed=seed)
+        return observation_message(KeyframeObservation.from_env(obs, scene_of_env(env)), episode_id)
+    finally:
+        env.close()
