@@ -94,3 +94,37 @@ def test_joint_space_states_through_a_kinematics_model(tmp_path: Path) -> None:
         model.ee_poses(state, ["left_joint1", "right_joint1"], ["middle"])
     with pytest.raises(FileNotFoundError, match="no such model"):
         KinematicsModel(tmp_path / "missing.xml")
+
+
+def test_a_joint_space_dataset_imports_through_kinematics(exported: tuple[list, Path], tmp_path: Path) -> None:
+    import shutil
+
+    import pyarrow as pa
+
+    _, out = exported
+    joint = tmp_path / "joint_space"
+    shutil.copytree(out, joint)
+    info = json.loads((joint / "meta/info.json").read_text())
+    names = ["left_joint1", "right_joint1", "left_gripper", "right_gripper"]
+    info["features"]["observation.state"] = {"dtype": "float32", "shape": [4], "names": names}
+    del info["bimanualshift"]
+    (joint / "meta/info.json").write_text(json.dumps(info))
+    data_path = joint / "data/chunk-000/file-000.parquet"
+    table = pq.read_table(data_path)
+    n = table.num_rows
+    state = np.stack([np.linspace(0, 1, n), np.linspace(0, -1, n), np.ones(n), np.zeros(n)], 1).astype(np.float32)
+    column = pa.FixedSizeListArray.from_arrays(pa.array(state.reshape(-1)), 4)
+    pq.write_table(table.set_column(table.schema.get_field_index("observation.state"), "observation.state", column),
+                   data_path)
+    with pytest.raises(LeRobotFormatError, match="kinematics"):
+        import_lerobot(joint)
+    xml = ("<mujoco><worldbody>" + "".join(ARM_XML.format(arm=a, y=y).split("<worldbody>")[1].split("</worldbody>")[0]
+                                           for a, y in (("left", 0.3), ("right", -0.3))) + "</worldbody></mujoco>")
+    (tmp_path / "arms.xml").write_text(xml)
+    back = import_lerobot(joint, kinematics=KinematicsModel(tmp_path / "arms.xml"), arms=["left", "right"])
+    proprio = np.concatenate([b.arrays["proprio"] for b in back])
+    assert proprio.shape == (n, 2, 8)
+    angle = state[:, 0]
+    np.testing.assert_allclose(proprio[:, 0, :3], np.stack([0.5 * np.cos(angle), 0.3 + 0.5 * np.sin(angle),
+                                                            np.ones(n)], 1), atol=1e-5)
+    assert (proprio[:, 0, 7] == 1).all() and (proprio[:, 1, 7] == 0).all()
