@@ -197,13 +197,13 @@ register_method(_backbone_method(
     "anybimanual", "baseline: AnyBimanual-style, the single-arm prior fine-tuned with learned soft voxel masks per arm "
     "and skill-weighted language", "train_anybimanual", "anybimanual:AnyBimanualPolicy", replace(_BACKBONE, lr=5e-4)))
 register_method(_backbone_method(
-    "dp_lf", "baseline: DP-LF, the leader-follower pair fine-tuned from the shipped Diffusion Policy prior (dp_suite) "
-    "on the bimanual demos", "train_leader_follower", "leader_follower_tuned:DiffusionLeaderFollowerPolicy",
-    # the benchmark's --prior names the PerAct-style prior the other methods use; DP-LF fine-tunes dp_suite
-    LeaderFollowerTrainConfig(lr=1e-4, optimizer="adamw", kind="diffusion", prior="dp_suite"), continual=True))
+    "dp_lf", "baseline: DP-LF, the leader-follower pair fine-tuned from the shipped Diffusion Policy prior "
+    "(dp_suite_v2) on the bimanual demos", "train_leader_follower", "leader_follower_tuned:DiffusionLeaderFollowerPolicy",
+    # the benchmark's --prior names the prior the other methods use; DP-LF fine-tunes the Diffusion Policy prior
+    LeaderFollowerTrainConfig(lr=1e-4, optimizer="adamw", kind="diffusion", prior="dp_suite_v2"), continual=True))
 register_method(_backbone_method(
-    "rvt_lf", "baseline: RVT-LF, the leader-follower pair fine-tuned from the RVT-style prior (rvt_suite: not "
-    "shipped yet: until it is, give the prior as the prior override) on the bimanual demos",
+    "rvt_lf", "baseline: RVT-LF, the leader-follower pair fine-tuned from the shipped RVT-style prior (rvt_suite) on "
+    "the bimanual demos",
     "train_leader_follower", "leader_follower_tuned:RVTLeaderFollowerPolicy",
     LeaderFollowerTrainConfig(kind="rvt", prior="rvt_suite"), continual=True))
 register_method(_backbone_method(

@@ -31,7 +31,7 @@ def test_few_shot_and_table1_follow_the_paper() -> None:
     assert table1[0].demos == 30 and table1[1].demos == 100
     assert len(study_runs("generalisation")[0][1].perturbations) == len(PRESETS)
     backbones = study_runs("backbones")
-    assert [cfg.prior for _, cfg in backbones] == ["peract_suite", "dp_suite"]
+    assert [cfg.prior for _, cfg in backbones] == ["peract_suite_v2", "dp_suite_v2", "rvt_suite"]
     assert all(cfg.tasks == table1[0].tasks + table1[1].tasks for _, cfg in backbones)  # Table II: the six tasks
     with pytest.raises(ValueError, match="unknown study"):
         study_runs("ablations")

@@ -23,8 +23,8 @@ from bimanualshift.evaluation.targets import study_targets
 from bimanualshift.sim.perturbations import PRESETS
 from bimanualshift.utils.io import atomic_write_text
 
-BASELINES = ["bimanualshift", "peract_lf", "dp_lf", "scratch_voxel", "scratch_dp", "scratch_act", "anybimanual",
-             "voxactb"]
+BASELINES = ["bimanualshift", "peract_lf", "dp_lf", "rvt_lf", "scratch_voxel", "scratch_dp", "scratch_act",
+             "anybimanual", "voxactb"]
 ABLATIONS = ["no_projection", "no_residual", "no_retrieval", "no_refinement", "unstructured", "paper_literal"]
 FEW_SHOT_TASKS = ["push_two_buttons", "lift_ball", "pick_up_plate"]
 TABLE1_TASKS = ("take_tray_out_of_oven", "straighten_rope", "sweep_to_dustpan", "lift_ball", "push_two_buttons",
@@ -71,7 +71,7 @@ _STUDIES = [
     Study("backbones", "Table II: the method over each shipped prior", tuple(
         (f"prior {prior}", BenchConfig(tasks=list(TABLE1_TASKS), demos=30, methods=["bimanualshift"], prior=prior,
                                        out=f"backbones/{prior}", runs=f"runs/backbones_{prior}"))
-        for prior in ("peract_suite", "dp_suite"))),
+        for prior in ("peract_suite_v2", "dp_suite_v2", "rvt_suite"))),
 ]
 STUDY_TABLE = {s.name: s for s in _STUDIES}
 STUDIES = tuple(STUDY_TABLE)
