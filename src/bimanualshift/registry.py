@@ -198,7 +198,8 @@ register_method(_backbone_method(
     "and skill-weighted language", "train_anybimanual", "anybimanual:AnyBimanualPolicy", replace(_BACKBONE, lr=5e-4)))
 register_method(_backbone_method(
     "dp_lf", "baseline: DP-LF, the leader-follower pair fine-tuned from the shipped Diffusion Policy prior "
-    "(dp_suite_v2) on the bimanual demos", "train_leader_follower", "leader_follower_tuned:DiffusionLeaderFollowerPolicy",
+    "(dp_suite_v2) on the bimanual demos", "train_leader_follower",
+    "leader_follower_tuned:DiffusionLeaderFollowerPolicy",
     # the benchmark's --prior names the prior the other methods use; DP-LF fine-tunes the Diffusion Policy prior
     LeaderFollowerTrainConfig(lr=1e-4, optimizer="adamw", kind="diffusion", prior="dp_suite_v2"), continual=True))
 register_method(_backbone_method(
