@@ -21,7 +21,8 @@ def read_token(path: str) -> str | None:
     if not file.is_file():
         raise FileNotFoundError(f"--token-file {path}: no such file (put a long random secret in it, e.g. "
                                 f"`python -c 'import secrets; print(secrets.token_urlsafe(32))' > {path}`)")
-    token = file.read_text().strip().splitlines()[0].strip() if file.read_text().strip() else ""
+    lines = file.read_text().strip().splitlines()
+    token = lines[0].strip() if lines else ""
     if len(token) < 16:
         raise ValueError(f"--token-file {path}: the token must be at least 16 characters, it has {len(token)}")
     if file.stat().st_mode & 0o077:
@@ -50,8 +51,9 @@ def serve(args: ServeArgs) -> None:
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s %(levelname)s %(message)s")
     token = read_token(args.token_file)
     check_bind(args.host, token)  # before loading anything
-    served = load_served_policy(args.method if args.checkpoint else (
-        args.method if args.method != "bimanualshift" else "no_residual"), args.checkpoint, args.prior, args.segmenter)
+    # a prior alone serves as no_residual unless another frozen-prior method is named
+    method = "no_residual" if not args.checkpoint and args.method == "bimanualshift" else args.method
+    served = load_served_policy(method, args.checkpoint, args.prior, args.segmenter)
     config = ServerConfig(args.host, args.port, token, int(args.max_message_mb * 2**20), args.idle_timeout_s,
                           args.max_connections)
     PolicyServer(served.policy, served.metadata, config, check=served.check).serve_forever()

@@ -109,7 +109,6 @@ def export_lerobot(episodes: list[Episode], out: str | Path, robot_type: str = "
     first = episodes[0]
     cams, arms = list(first.camera_names), list(first.arm_names)
     h, w = first.arrays["rgb"].shape[2:4]
-    maps = True
     for ep in episodes:
         if ep.camera_names != cams or ep.arm_names != arms or ep.arrays["rgb"].shape[2:4] != (h, w):
             raise ValueError(f"episode {ep.task} seed {ep.seed} has other cameras, arms or image size than the "
@@ -121,9 +120,8 @@ def export_lerobot(episodes: list[Episode], out: str | Path, robot_type: str = "
             "info": {"video.height": h, "video.width": w, "video.codec": "av1", "video.pix_fmt": "yuv420p",
                      "video.is_depth_map": False, "video.fps": FPS, "video.channels": 3, "has_audio": False}}
         features[f"observation.depth.{cam}"] = _feature("float32", (h, w), ["height", "width"])
-        if maps:
-            features[f"observation.instance.{cam}"] = _feature("int16", (h, w), ["height", "width"])
-            features[f"observation.class.{cam}"] = _feature("int16", (h, w), ["height", "width"])
+        features[f"observation.instance.{cam}"] = _feature("int16", (h, w), ["height", "width"])
+        features[f"observation.class.{cam}"] = _feature("int16", (h, w), ["height", "width"])
         features[f"observation.intrinsics.{cam}"] = _feature("float64", (3, 3), None)
         features[f"observation.extrinsics.{cam}"] = _feature("float64", (4, 4), None)
     features["observation.state"] = _feature("float32", (8 * len(arms),),

@@ -80,14 +80,24 @@ def solve_camera_to_base(gripper_to_base: list[np.ndarray], marker_to_camera: li
     return out
 
 
+def mean_link(camera_to_base: np.ndarray, gripper_to_base: list[np.ndarray],
+              marker_to_camera: list[np.ndarray]) -> np.ndarray:
+    """The marker-to-gripper transform the pairs agree on (their mean)."""
+    links = [np.linalg.inv(g) @ camera_to_base @ m for g, m in zip(gripper_to_base, marker_to_camera)]
+    out = np.eye(4)
+    out[:3, :3] = Rotation.from_matrix(np.stack([x[:3, :3] for x in links])).mean().as_matrix()
+    out[:3, 3] = np.mean([x[:3, 3] for x in links], axis=0)
+    return out
+
+
 def link_deviations(camera_to_base: np.ndarray, gripper_to_base: list[np.ndarray],
                     marker_to_camera: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
     """Per pair, how far its marker-to-gripper transform lies from the pairs' mean (mm, degrees): a fixed
     mount makes them all equal, a bad detection stands out."""
     links = [np.linalg.inv(g) @ camera_to_base @ m for g, m in zip(gripper_to_base, marker_to_camera)]
-    mean_t = np.mean([x[:3, 3] for x in links], axis=0)
-    mean_r = Rotation.from_matrix(np.stack([x[:3, :3] for x in links])).mean()
-    dt = np.array([1e3 * np.linalg.norm(x[:3, 3] - mean_t) for x in links])
+    mean = mean_link(camera_to_base, gripper_to_base, marker_to_camera)
+    mean_r = Rotation.from_matrix(mean[:3, :3])
+    dt = np.array([1e3 * np.linalg.norm(x[:3, 3] - mean[:3, 3]) for x in links])
     dr = np.array([np.degrees((mean_r.inv() * Rotation.from_matrix(x[:3, :3])).magnitude()) for x in links])
     return dt, dr
 
@@ -204,24 +214,6 @@ def refine_jointly(views: list[View], intrinsics: dict[str, np.ndarray], marker_
     rms = float(np.sqrt(np.mean(residuals(fit.x) ** 2)))
     return ({c: poses[("camera", c)] for c in cams}, {a: poses[("base", a)] for a in arms},
             {a: poses[("mount", a)] for a in arms}, rms)
-
-
-def mean_link(camera_to_base: np.ndarray, gripper_to_base: list[np.ndarray],
-              marker_to_camera: list[np.ndarray]) -> np.ndarray:
-    """The marker-to-gripper transform the pairs agree on (their mean)."""
-    links = [np.linalg.inv(g) @ camera_to_base @ m for g, m in zip(gripper_to_base, marker_to_camera)]
-    out = np.eye(4)
-    out[:3, :3] = Rotation.from_matrix(np.stack([x[:3, :3] for x in links])).mean().as_matrix()
-    out[:3, 3] = np.mean([x[:3, 3] for x in links], axis=0)
-    return out
-
-
-def consistency(camera_to_base: np.ndarray, gripper_to_base: list[np.ndarray],
-                marker_to_camera: list[np.ndarray]) -> dict[str, float]:
-    """How well one fixed marker-on-gripper transform explains every pair (a check without ground truth):
-    the spread of marker-to-gripper across the pairs, in mm and degrees (median)."""
-    dt, dr = link_deviations(camera_to_base, gripper_to_base, marker_to_camera)
-    return {"median_mm": float(np.median(dt)), "median_deg": float(np.median(dr))}
 
 
 def pose_error(estimate: np.ndarray, truth: np.ndarray) -> tuple[float, float]:
