@@ -45,7 +45,7 @@ class BenchConfig:
     # "validation": roll out on validation seeds instead (design choices, e.g. the action-space residual against
     # the continuous one, are made there, never on test seeds); they start past the validation demos' seeds
     evaluate_on: str = "test"
-    prior: str = "peract_suite"
+    prior: str = "peract_suite"  # the frozen single-arm prior: a shipped name or a checkpoint folder
     steps: int = 0  # training steps of every method not in method_steps; 0: each method's own (MethodSpec.steps)
     method_steps: dict = field(default_factory=lambda: {"scratch_voxel": 3000})  # per-method training steps
     workers: int = 2
@@ -59,7 +59,7 @@ class BenchConfig:
     # Continual learning: a runs folder of one earlier task (runs/<bench>/<task>); every method that supports it
     # starts from its own run there (its weights and, for BimanualShift, its memory bank).
     continue_from: str = ""
-    seed: int = 0
+    seed: int = 0  # training seed of every method (episode seeds are fixed per split)
     # refined methods (bimanualshift and its ablations but no_refinement) roll out on this many training scenes
     # after the demos' own, the expert correcting their failures, before they are evaluated
     refine_episodes: int = REFINE_EPISODES
