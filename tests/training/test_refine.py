@@ -13,9 +13,10 @@ from safetensors.torch import load_file
 
 from bimanualshift.data.frames import KeyframeObservation, scene_of_env
 from bimanualshift.encoders.text import default_text_encoder
-from bimanualshift.geometry.frames import compose_rotation
+from bimanualshift.geometry.frames import compose_rotation, quat_to_euler_bins
 from bimanualshift.memory.bank import MemoryBank
 from bimanualshift.methods.bimanualshift import MEMORY_FILE, load_bimanualshift
+from bimanualshift.residual.manager import action_lattice
 from bimanualshift.sim.env import ManipulationEnv
 from bimanualshift.training.checkpoint import latest_checkpoint
 from bimanualshift.training.configs import RefineConfig, TrainConfig
@@ -107,3 +108,40 @@ def test_refine_corrects_grows_memory_resumes_and_keeps_prior_frozen(trained: Pa
         assert torch.equal(value, prior_after[key]), key
     assert json.loads((best / "config.json").read_text())["refined_from"] == str(trained)
     load_bimanualshift(best, default_text_encoder())  # the refined checkpoint loads like a trained one
+
+
+def test_an_action_space_residual_is_corrected_in_its_own_action_space(demo_root: Path, tmp_path: Path) -> None:
+    from tests.training.test_train_resume import pretrain, pretrain_cfg
+
+    prior = pretrain(pretrain_cfg(demo_root, tmp_path / "prior", steps=2))
+    trained = train_residual(config_from_flat(TrainConfig, prior=str(prior), data=str(demo_root / "bimanual"),
+                                              validation_data=str(demo_root / "bimanual"), out=str(tmp_path / "r"),
+                                              steps=2, checkpoint_every=2, demos=2, retrieval=True,
+                                              retrieval_threshold=-1.0, action_space=True, action_window=5))
+    policy = load_bimanualshift(trained, default_text_encoder())
+    env = ManipulationEnv("push_two_buttons", image_size=64)
+    try:
+        plan = expert_actions(env, 3)[:1]
+        _, _, _, correction = run_policy(env, policy, 3, len(plan), plan, 0.0, 0.0)
+        obs, _ = env.reset(seed=3)
+        policy.reset()
+        first = policy.decide(KeyframeObservation.from_env(obs, scene_of_env(env)))
+    finally:
+        env.close()
+    targets = correction.action_space
+    assert len(targets["target_cell"]) == len(correction.inputs) == 2
+    lattice = action_lattice(policy.residual.config)
+    for i, decision in enumerate(first):
+        pos, quat = decision.step.frame.pose_to_arm(plan[0][i][:3], plan[0][i][3:7])
+        cells = decision.step.prior.position[0] + lattice
+        distances = (cells - torch.as_tensor(pos, dtype=torch.float32)).norm(dim=-1)
+        # the target cell is the lattice cell nearest the corrector's position
+        assert float(distances[targets["target_cell"][i]]) == pytest.approx(float(distances.min()))
+        bins = quat_to_euler_bins(quat, policy.prior_step.prior.rotation_bin_degrees)
+        assert targets["target_bins"][i].tolist() == bins.tolist()
+        assert targets["prior_translation"][i].shape == (125,) and targets["prior_rotation"][i].shape[0] == 3
+    best = refine(RefineConfig(checkpoint=str(trained), out=str(tmp_path / "refined"), episodes=1, start=5,
+                               max_keyframes=2, steps=2, checkpoint_every=2))
+    summary = json.loads((tmp_path / "refined" / "summary.json").read_text())
+    assert summary["correction_samples"] > 0 and "correction" in summary["history"][-1]
+    assert load_bimanualshift(best, default_text_encoder()).residual.config.action_space

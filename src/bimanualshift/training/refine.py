@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import json
 import time
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -32,9 +32,10 @@ from bimanualshift.data.episode import list_episodes
 from bimanualshift.data.frames import KeyframeObservation
 from bimanualshift.data.seeds import split_seeds
 from bimanualshift.encoders.text import TextEncoder
-from bimanualshift.geometry.frames import rotation_difference
+from bimanualshift.geometry.frames import quat_to_euler_bins, rotation_difference
 from bimanualshift.memory.bank import MemoryBank, MemoryEntry
 from bimanualshift.methods.bimanualshift import MEMORY_FILE, BimanualShift, load_bimanualshift, save_residual
+from bimanualshift.residual.manager import action_lattice
 from bimanualshift.residual.output_gate import choose_output_scale, reset_output_scale
 from bimanualshift.rollout.loop import rollout
 from bimanualshift.sim.env import ManipulationEnv
@@ -62,6 +63,8 @@ class Correction:
     rotation: list[np.ndarray]
     gripper: list[float]  # the corrector's gripper (1 open)
     hold: list[float]  # 1 where the corrector repeats the arm's previous action (it waits)
+    # an action-space residual's targets (ResidualData's fields of the same names), one row per correction
+    action_space: dict[str, list[torch.Tensor]] = field(default_factory=dict)
 
 
 def arm_frame_action(decision_frame: Any, row: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -75,6 +78,21 @@ def strays(policy_row: np.ndarray, expert_row: np.ndarray, tolerance_m: float, t
     angle = np.degrees(np.linalg.norm(rotation_difference(expert_row[3:7], policy_row[3:7]))) > tolerance_deg
     gripper = (policy_row[7] > 0.5) != (expert_row[7] > 0.5)
     return bool(position or angle or gripper)
+
+
+def action_space_targets(policy: BimanualShift, step: Any, position: np.ndarray, quat: np.ndarray
+                         ) -> dict[str, torch.Tensor]:
+    """An action-space residual's correction targets (Eq. 10 in the prior's own action space): the prior's
+    log-probabilities on the lattice around its proposal and of its rotation bins, the lattice cell nearest the
+    corrector's arm-frame ``position`` and the corrector's rotation bins, as ``residual_data`` builds them for
+    the demos."""
+    prior, model = step.prior, policy.prior_step.prior
+    cells = prior.position[0][None] + action_lattice(policy.residual.config)
+    target = torch.as_tensor(position, dtype=torch.float32)
+    return {"prior_translation": model.translation_scores(prior, cells[None])[0],
+            "prior_rotation": torch.log_softmax(prior.logits["rotation"][0].float(), -1),
+            "target_cell": (cells - target).norm(dim=-1).argmin(),
+            "target_bins": torch.as_tensor(quat_to_euler_bins(quat, model.rotation_bin_degrees))}
 
 
 def _trajectory_row(decisions: list, executed: np.ndarray) -> np.ndarray:
@@ -109,6 +127,9 @@ def run_policy(env: ManipulationEnv, policy: BimanualShift, seed: int, max_keyfr
                 correction.rotation.append(rotation_difference(quat, base.quat[0].numpy()))
                 correction.gripper.append(float(expert[7] > 0.5))
                 correction.hold.append(float(k > 0 and repeats(expert, corrector[k - 1][i])))
+                if policy.residual.config.action_space:
+                    for name, value in action_space_targets(policy, d.step, pos, quat).items():
+                        correction.action_space.setdefault(name, []).append(value)
         trajectory.append(_trajectory_row(decisions, executed))
         return executed
 
@@ -130,7 +151,8 @@ def _save_scene(path: Path, record: dict, correction: Correction, trajectory: np
                "translation": torch.as_tensor(np.asarray(correction.translation, np.float32)),
                "rotation": torch.as_tensor(np.asarray(correction.rotation, np.float32)),
                "gripper": torch.as_tensor(np.asarray(correction.gripper, np.float32)),
-               "hold": torch.as_tensor(np.asarray(correction.hold, np.float32))}
+               "hold": torch.as_tensor(np.asarray(correction.hold, np.float32)),
+               **{name: torch.stack(rows) for name, rows in correction.action_space.items()}}
     if trajectory is not None and key is not None:
         tensors["trajectory"] = torch.as_tensor(trajectory)
         tensors["key"] = torch.as_tensor(np.asarray(key, np.float32))
@@ -200,10 +222,6 @@ def refine(cfg: RefineConfig, text_encoder: TextEncoder | None = None) -> Path:
     # the demos it was trained on (a flat train_config of an older checkpoint reads too)
     train_cfg = config_from_dict(TrainConfig, meta["train_config"], checkpoint / "config.json").dataset
     policy = load_bimanualshift(checkpoint, text_encoder)
-    if policy.residual.config.action_space:
-        raise ValueError(f"{checkpoint} is an action-space residual: its corrections would be lattice cells and "
-                         "rotation bins, which refinement does not build yet; refine a continuous residual "
-                         "(trained with --action-space false)")
     task = meta["task"]
 
     # 1-3: rollouts on training scenes, corrections, successes into the (unfrozen) bank.
