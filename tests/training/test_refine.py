@@ -110,11 +110,10 @@ def test_refine_corrects_grows_memory_resumes_and_keeps_prior_frozen(trained: Pa
     load_bimanualshift(best, default_text_encoder())  # the refined checkpoint loads like a trained one
 
 
-def test_an_action_space_residual_is_corrected_in_its_own_action_space(demo_root: Path, tmp_path: Path) -> None:
-    from tests.training.test_train_resume import pretrain, pretrain_cfg
-
-    prior = pretrain(pretrain_cfg(demo_root, tmp_path / "prior", steps=2))
-    trained = train_residual(config_from_flat(TrainConfig, prior=str(prior), data=str(demo_root / "bimanual"),
+def test_an_action_space_residual_is_corrected_in_its_own_action_space(demo_root: Path, trained: Path,
+                                                                       tmp_path: Path) -> None:
+    prior = json.loads((trained / "config.json").read_text())["prior"]  # the module's tiny PerAct-style prior
+    trained = train_residual(config_from_flat(TrainConfig, prior=prior, data=str(demo_root / "bimanual"),
                                               validation_data=str(demo_root / "bimanual"), out=str(tmp_path / "r"),
                                               steps=2, checkpoint_every=2, demos=2, retrieval=True,
                                               retrieval_threshold=-1.0, action_space=True, action_window=5))
