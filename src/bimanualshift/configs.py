@@ -31,6 +31,10 @@ PRIOR_SIZES: dict[str, dict[str, dict[str, Any]]] = {
 # 1,500 steps on tasks the prior never saw (take_tray_out_of_oven); a step costs ~1 ms, the prior being cached.
 RESIDUAL_STEPS = 10000
 
+# The frozen prior the benchmark, `train` and the demo use unless told otherwise: the PerAct-style one, the paper's
+# main backbone (its Table I rows); the RVT-style prior is the second backbone (the backbones study).
+DEFAULT_PRIOR = "peract_suite_v2"
+
 PRIOR_MODELS = PRIOR_SIZES["peract"]  # the PerAct sizes, by their historical name
 
 

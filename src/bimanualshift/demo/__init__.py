@@ -12,9 +12,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from bimanualshift.configs import RESIDUAL_STEPS
+from bimanualshift.configs import DEFAULT_PRIOR, RESIDUAL_STEPS
 
-SHIPPED_PRIOR = Path(__file__).resolve().parents[3] / "checkpoints" / "peract_suite"
+SHIPPED_PRIOR = Path(__file__).resolve().parents[3] / "checkpoints" / DEFAULT_PRIOR
 
 
 @dataclass

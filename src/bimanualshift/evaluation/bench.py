@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from bimanualshift.configs import DEFAULT_PRIOR
 from bimanualshift.data.seeds import split_seeds
 from bimanualshift.evaluation.plots import draw_plots
 from bimanualshift.evaluation.stats import SuccessRate, SuccessRow
@@ -45,7 +46,7 @@ class BenchConfig:
     # "validation": roll out on validation seeds instead (design choices, e.g. the action-space residual against
     # the continuous one, are made there, never on test seeds); they start past the validation demos' seeds
     evaluate_on: str = "test"
-    prior: str = "peract_suite"  # the frozen single-arm prior: a shipped name or a checkpoint folder
+    prior: str = DEFAULT_PRIOR  # the frozen single-arm prior: a shipped name or a checkpoint folder
     steps: int = 0  # training steps of every method not in method_steps; 0: each method's own (MethodSpec.steps)
     method_steps: dict = field(default_factory=lambda: {"scratch_voxel": 3000})  # per-method training steps
     workers: int = 2

@@ -8,7 +8,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
-from bimanualshift.configs import RESIDUAL_STEPS
+from bimanualshift.configs import DEFAULT_PRIOR, RESIDUAL_STEPS
 
 if TYPE_CHECKING:
     from bimanualshift.residual.manager import ResidualConfig
@@ -149,7 +149,7 @@ class TrainConfig:
     of every group is one flag (``--task``, ``--retrieval``, ``--steps``, ...); a flat config of an older run
     still reads (``--config``)."""
 
-    prior: str = "peract_suite"  # a shipped name or a checkpoint folder
+    prior: str = DEFAULT_PRIOR  # a shipped name or a checkpoint folder
     out: str = "runs/bimanualshift"
     # Continual learning: an earlier BimanualShift run (or its checkpoint) whose Manager, Z and G start this run
     # and whose memory bank entries join this task's, so earlier tasks stay retrievable.
