@@ -33,6 +33,14 @@ class MethodSpec:
     steps: int = DEFAULT_TRAIN_STEPS  # its default training steps
     config: Any = None  # its default typed training config (a dataclass the request's overrides are applied to)
     refine: bool = False  # training ends with refinement on training scenes (``refine_*`` request overrides)
+    # the method whose training run this one shares (its folder in a benchmark's runs): the full method before
+    # refinement is the full method's own trained residual, not a second, identical training
+    trains_as: str = ""
+
+    @property
+    def run_name(self) -> str:
+        """The folder under ``runs/<bench>/<task>/`` holding this method's training run."""
+        return self.trains_as or self.name
 
 
 METHODS: dict[str, MethodSpec] = {}
@@ -64,7 +72,8 @@ def _finished(run: Path) -> Path | None:
     return best if (run / "summary.json").is_file() and (best / "config.json").is_file() else None
 
 
-def _residual_method(name: str, description: str, refine: bool = True, **switches: Any) -> MethodSpec:
+def _residual_method(name: str, description: str, refine: bool = True, trains_as: str = "", **switches: Any
+                     ) -> MethodSpec:
     """BimanualShift trained with ``switches`` (TrainConfig fields) on top of the request, then (``refine``)
     refined on training scenes: the method as the paper runs it."""
 
@@ -94,7 +103,8 @@ def _residual_method(name: str, description: str, refine: bool = True, **switche
         policy.name = name
         return policy
 
-    return MethodSpec(name, description, train, load, continual=True, steps=RESIDUAL_STEPS, refine=refine)
+    return MethodSpec(name, description, train, load, continual=True, steps=RESIDUAL_STEPS, refine=refine,
+                      trains_as=trains_as)
 
 
 def _frozen_prior_method(name: str, description: str, use_projection: bool) -> MethodSpec:
@@ -112,7 +122,8 @@ register_method(_residual_method(
     "bimanualshift", "projection + residual skill modulation + retrieval, refined on training scenes (the full "
     "method)", retrieval=True))
 register_method(_residual_method(
-    "no_refinement", "ablation: the full method before refinement (L_BC only)", refine=False, retrieval=True))
+    "no_refinement", "ablation: the full method before refinement (L_BC only; the full method's run before its "
+    "refinement stage)", refine=False, trains_as="bimanualshift", retrieval=True))
 register_method(_residual_method(
     "paper_literal", "ablation: the residual moves translation and rotation only (Eq. 4 as written: no gripper "
     "residual, no hold)", retrieval=True, paper_literal=True))

@@ -14,7 +14,7 @@ from bimanualshift.evaluation.bench import BenchConfig, bench_rows, read_episode
 from bimanualshift.evaluation.explain import explain_rows
 from bimanualshift.evaluation.stats import wilson_interval
 from bimanualshift.evaluation.tables import bench_table
-from bimanualshift.registry import METHODS, get_method
+from bimanualshift.registry import METHODS, REFINE_FOLDER, get_method
 
 
 def test_rows_average_tasks_and_pool_intervals() -> None:
@@ -169,6 +169,22 @@ def test_a_training_run_is_reused_only_for_the_request_that_started_it(tmp_path:
         check_training_run(_request(replace(cfg, demos=100), "lift_ball", "scratch_voxel"))
     with pytest.raises(ValueError, match="steps=3000 there, 10 now"):
         check_training_run(_request(replace(cfg, method_steps={"scratch_voxel": 10}), "lift_ball", "scratch_voxel"))
+
+
+def test_the_unrefined_ablation_shares_the_full_methods_training_run_but_not_its_refinement(tmp_path: Path) -> None:
+    from bimanualshift.evaluation.bench import REQUEST_FILE, _request, check_training_run
+
+    cfg = BenchConfig(tasks=["lift_ball"], runs=str(tmp_path / "runs"), data=str(tmp_path / "data"))
+    full, unrefined = _request(cfg, "lift_ball", "bimanualshift"), _request(cfg, "lift_ball", "no_refinement")
+    assert full.out == unrefined.out == str(tmp_path / "runs" / "lift_ball" / "bimanualshift")
+    assert "refine_episodes" in full.overrides and "refine_episodes" not in unrefined.overrides
+    check_training_run(full)
+    check_training_run(unrefined)  # the same training run: the refinement settings are its own stage's
+    refine_request = Path(full.out) / REFINE_FOLDER / REQUEST_FILE
+    assert json.loads(refine_request.read_text())["refine_episodes"] == full.overrides["refine_episodes"]
+    with pytest.raises(ValueError, match="a refinement run made with other settings.*refine_episodes=20 there, 3"):
+        check_training_run(_request(replace(cfg, refine_episodes=3), "lift_ball", "bimanualshift"))
+    assert _request(cfg, "lift_ball", "no_retrieval").out.endswith("lift_ball/no_retrieval")
 
 
 def test_a_results_folder_from_before_the_settings_file_is_checked_against_its_summary(tmp_path: Path) -> None:

@@ -84,7 +84,7 @@ class BenchJob:
 def _request(cfg: BenchConfig, task: str, method: str, training: bool = True) -> TrainRequest:
     overrides = {}
     if cfg.continue_from and get_method(method).continual and training:
-        earlier = Path(cfg.continue_from) / method
+        earlier = Path(cfg.continue_from) / get_method(method).run_name
         if not earlier.is_dir():
             raise FileNotFoundError(f"continue_from={cfg.continue_from!r}: {method} has no earlier run at {earlier}; "
                                     "run the benchmark on the earlier task first")
@@ -92,7 +92,7 @@ def _request(cfg: BenchConfig, task: str, method: str, training: bool = True) ->
     if get_method(method).refine:
         overrides["refine_episodes"] = cfg.refine_episodes
     return TrainRequest(task=task, data=f"{cfg.data}/train", validation_data=f"{cfg.data}/validation",
-                        demos=cfg.demos, prior=cfg.prior, out=f"{cfg.runs}/{task}/{method}",
+                        demos=cfg.demos, prior=cfg.prior, out=f"{cfg.runs}/{task}/{get_method(method).run_name}",
                         steps=int(cfg.method_steps.get(method) or cfg.steps or get_method(method).steps),
                         seed=cfg.seed,
                         overrides=overrides)
@@ -135,8 +135,15 @@ def check_training_run(request: TrainRequest) -> None:
     """A training run is resumed or reused only for the request that started it (paths aside: data and runs may
     move)."""
     settings = {k: v for k, v in asdict(request).items() if k not in ("data", "validation_data", "out")}
-    _check_same(Path(request.out) / REQUEST_FILE, settings, None, "a training run",
-                "give this run its own --runs, or delete that folder to retrain")
+    # refinement's settings belong to its own stage (``refine/``): the full method and its unrefined ablation
+    # share the training run before it
+    refine = {k: v for k, v in request.overrides.items() if k.startswith("refine_")}
+    settings["overrides"] = {k: v for k, v in request.overrides.items() if k not in refine}
+    fix = "give this run its own --runs, or delete that folder to retrain"
+    _check_same(Path(request.out) / REQUEST_FILE, settings, None, "a training run", fix)
+    if refine:
+        _check_same(Path(request.out) / REFINE_FOLDER / REQUEST_FILE, {**settings, **refine}, None,
+                    "a refinement run", fix)
 
 
 REFINEMENT_FIELDS = ("scenes", "policy_successes", "corrected_successes", "correction_samples",
@@ -148,7 +155,7 @@ def refinement_records(cfg: BenchConfig, tasks: list[str]) -> dict[str, dict[str
     successes, the correction samples, and the memory entries added (from the run's refine/summary.json)."""
     out = {}
     for task in tasks:
-        for method in cfg.methods:
+        for method in (m for m in cfg.methods if get_method(m).refine):
             path = Path(cfg.runs) / task / method / REFINE_FOLDER / "summary.json"
             if path.is_file():
                 summary = json.loads(path.read_text())
