@@ -15,7 +15,7 @@ from bimanualshift.data.frames import KeyframeObservation, scene_of_env
 from bimanualshift.encoders.text import default_text_encoder
 from bimanualshift.geometry.frames import compose_rotation, quat_to_euler_bins
 from bimanualshift.memory.bank import MemoryBank
-from bimanualshift.methods.bimanualshift import MEMORY_FILE, load_bimanualshift
+from bimanualshift.methods.bimanualshift import MEMORY_FILE, BimanualShift, load_bimanualshift
 from bimanualshift.residual.manager import action_lattice
 from bimanualshift.sim.env import ManipulationEnv
 from bimanualshift.training.checkpoint import latest_checkpoint
@@ -50,18 +50,25 @@ def trained(demo_root: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
                                       retrieval_threshold=-1.0))
 
 
-def test_corrector_targets_are_expert_minus_frozen_prior(trained: Path) -> None:
-    policy = load_bimanualshift(trained, default_text_encoder())
+def _fully_corrected(policy: BimanualShift, keyframes: int) -> tuple:
+    """The first ``keyframes`` of push two buttons (seed 3) with tolerance 0, so every arm strays at every step
+    and the expert drives the whole episode; then the policy's decisions at the first keyframe of the same scene.
+    Returns (plan, trajectory, key, correction, first decisions)."""
     env = ManipulationEnv("push_two_buttons", image_size=64)
     try:
-        plan = expert_actions(env, 3)[:2]
-        # Tolerance 0: every arm strays at every step, so the expert drives the whole episode.
+        plan = expert_actions(env, 3)[:keyframes]
         _, trajectory, key, correction = run_policy(env, policy, 3, len(plan), plan, 0.0, 0.0)
         obs, _ = env.reset(seed=3)
         policy.reset()
         first = policy.decide(KeyframeObservation.from_env(obs, scene_of_env(env)))
     finally:
         env.close()
+    return plan, trajectory, key, correction, first
+
+
+def test_corrector_targets_are_expert_minus_frozen_prior(trained: Path) -> None:
+    policy = load_bimanualshift(trained, default_text_encoder())
+    plan, trajectory, key, correction, first = _fully_corrected(policy, keyframes=2)
     assert len(correction.inputs) == 2 * len(plan) and key is not None
     for i, decision in enumerate(first):  # Eq. 10 at the first keyframe, per arm
         pos, quat = decision.step.frame.pose_to_arm(plan[0][i][:3], plan[0][i][3:7])
@@ -118,15 +125,7 @@ def test_an_action_space_residual_is_corrected_in_its_own_action_space(demo_root
                                               steps=2, checkpoint_every=2, demos=2, retrieval=True,
                                               retrieval_threshold=-1.0, action_space=True, action_window=5))
     policy = load_bimanualshift(trained, default_text_encoder())
-    env = ManipulationEnv("push_two_buttons", image_size=64)
-    try:
-        plan = expert_actions(env, 3)[:1]
-        _, _, _, correction = run_policy(env, policy, 3, len(plan), plan, 0.0, 0.0)
-        obs, _ = env.reset(seed=3)
-        policy.reset()
-        first = policy.decide(KeyframeObservation.from_env(obs, scene_of_env(env)))
-    finally:
-        env.close()
+    plan, _, _, correction, first = _fully_corrected(policy, keyframes=1)
     targets = correction.action_space
     assert len(targets["target_cell"]) == len(correction.inputs) == 2
     lattice = action_lattice(policy.residual.config)
