@@ -32,10 +32,9 @@ from bimanualshift.data.episode import list_episodes
 from bimanualshift.data.frames import KeyframeObservation
 from bimanualshift.data.seeds import split_seeds
 from bimanualshift.encoders.text import TextEncoder
-from bimanualshift.geometry.frames import quat_to_euler_bins, rotation_difference
+from bimanualshift.geometry.frames import rotation_difference
 from bimanualshift.memory.bank import MemoryBank, MemoryEntry
 from bimanualshift.methods.bimanualshift import MEMORY_FILE, BimanualShift, load_bimanualshift, save_residual
-from bimanualshift.residual.manager import action_lattice
 from bimanualshift.residual.output_gate import choose_output_scale, reset_output_scale
 from bimanualshift.rollout.loop import rollout
 from bimanualshift.sim.env import ManipulationEnv
@@ -47,6 +46,7 @@ from bimanualshift.training.residual_trainer import (
     TARGET_FIELDS,
     LossWeights,
     ResidualData,
+    action_space_targets,
     bc_loss,
     repeats,
     residual_data,
@@ -78,21 +78,6 @@ def strays(policy_row: np.ndarray, expert_row: np.ndarray, tolerance_m: float, t
     angle = np.degrees(np.linalg.norm(rotation_difference(expert_row[3:7], policy_row[3:7]))) > tolerance_deg
     gripper = (policy_row[7] > 0.5) != (expert_row[7] > 0.5)
     return bool(position or angle or gripper)
-
-
-def action_space_targets(policy: BimanualShift, step: Any, position: np.ndarray, quat: np.ndarray
-                         ) -> dict[str, torch.Tensor]:
-    """An action-space residual's correction targets (Eq. 10 in the prior's own action space): the prior's
-    log-probabilities on the lattice around its proposal and of its rotation bins, the lattice cell nearest the
-    corrector's arm-frame ``position`` and the corrector's rotation bins, as ``residual_data`` builds them for
-    the demos."""
-    prior, model = step.prior, policy.prior_step.prior
-    cells = prior.position[0][None] + action_lattice(policy.residual.config)
-    target = torch.as_tensor(position, dtype=torch.float32)
-    return {"prior_translation": model.translation_scores(prior, cells[None])[0],
-            "prior_rotation": torch.log_softmax(prior.logits["rotation"][0].float(), -1),
-            "target_cell": (cells - target).norm(dim=-1).argmin(),
-            "target_bins": torch.as_tensor(quat_to_euler_bins(quat, model.rotation_bin_degrees))}
 
 
 def _trajectory_row(decisions: list, executed: np.ndarray) -> np.ndarray:
@@ -127,9 +112,11 @@ def run_policy(env: ManipulationEnv, policy: BimanualShift, seed: int, max_keyfr
                 correction.rotation.append(rotation_difference(quat, base.quat[0].numpy()))
                 correction.gripper.append(float(expert[7] > 0.5))
                 correction.hold.append(float(k > 0 and repeats(expert, corrector[k - 1][i])))
-                if policy.residual.config.action_space:
-                    for name, value in action_space_targets(policy, d.step, pos, quat).items():
-                        correction.action_space.setdefault(name, []).append(value)
+                if policy.residual.config.action_space:  # Eq. 10 in the prior's own action space
+                    targets = action_space_targets(policy.prior_step.prior, base, policy.residual.config,
+                                                   torch.as_tensor(pos, dtype=torch.float32)[None], quat[None])
+                    for name, value in targets.items():
+                        correction.action_space.setdefault(name, []).append(value[0])
         trajectory.append(_trajectory_row(decisions, executed))
         return executed
 

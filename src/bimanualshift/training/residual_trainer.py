@@ -25,7 +25,7 @@ from bimanualshift.memory.reference import REFERENCE_DIM, ProgressAlignment, epi
 from bimanualshift.methods.bimanualshift import MEMORY_FILE, save_residual
 from bimanualshift.methods.prior_step import FrozenPriorStep
 from bimanualshift.perception.arm_samples import ArmSamples, build_arm_samples
-from bimanualshift.priors.base import UnimanualPrior
+from bimanualshift.priors.base import PriorOutput, UnimanualPrior
 from bimanualshift.residual.manager import ResidualConfig, ResidualPolicy, action_lattice, manager_input_rows
 from bimanualshift.residual.output_gate import choose_output_scale, reset_output_scale
 from bimanualshift.residual.skills import SkillBasis
@@ -140,7 +140,9 @@ def residual_data(config: ResidualConfig, paths: list[Path], prior_step: FrozenP
         proprio = transform_poses(torch.as_tensor(samples.proprio), grid, yaw, shift)
         other = torch.as_tensor(samples.other_proprio)
         other = transform_poses(other, grid, yaw, shift) if two_arms else other
-        features, base, proposal, lattice_scores, rotation_logp = [], [], [], [], []
+        moved_pos = transform_points(target_pos, grid, yaw, shift)
+        quat = transform_quats(target_quat, yaw).numpy()
+        features, base, proposal, action_parts = [], [], [], []
         with torch.no_grad():
             for start in range(0, n, 32):
                 sl = slice(start, start + 32)
@@ -152,9 +154,7 @@ def residual_data(config: ResidualConfig, paths: list[Path], prior_step: FrozenP
                 if config.proposal_dim:
                     proposal.append(prior_step.prior.proposal_features(*batch, out))
                 if config.action_space:
-                    cells = out.position[:, None] + action_lattice(config)[None]
-                    lattice_scores.append(prior_step.prior.translation_scores(out, cells))
-                    rotation_logp.append(F.log_softmax(out.logits["rotation"].float(), -1))
+                    action_parts.append(action_space_targets(prior_step.prior, out, config, moved_pos[sl], quat[sl]))
         features_t, base_t = torch.cat(features), torch.cat(base)
         proposal_t = torch.cat(proposal) if proposal else None
         if copy == 0:
@@ -171,24 +171,34 @@ def residual_data(config: ResidualConfig, paths: list[Path], prior_step: FrozenP
                 else None)
         inputs = manager_input_rows(config, features_t, proprio, other, text, base_t, arm_index,
                                     torch.as_tensor(samples.keyframe), reference, goal, proposal_t)
-        translation = transform_points(target_pos, grid, yaw, shift) - base_t[:, :3]
-        quat = transform_quats(target_quat, yaw).numpy()
+        translation = moved_pos - base_t[:, :3]
         rotation = torch.as_tensor(np.stack([rotation_difference(t, b) for t, b in zip(quat, base_t[:, 3:7].numpy())]),
                                    dtype=torch.float32)
-        action_targets = {}
-        if config.action_space:
-            moved = transform_points(target_pos, grid, yaw, shift)
-            cells = base_t[:, None, :3] + action_lattice(config)[None]
-            degrees = prior_step.prior.rotation_bin_degrees
-            action_targets = {
-                "prior_translation": torch.cat(lattice_scores), "prior_rotation": torch.cat(rotation_logp),
-                "target_cell": (cells - moved[:, None]).norm(dim=-1).argmin(-1),
-                "target_bins": torch.as_tensor(np.stack([quat_to_euler_bins(q, degrees) for q in quat]))}
+        action_targets = {name: torch.cat([part[name] for part in action_parts]) for name in ACTION_SPACE_FIELDS
+                          } if action_parts else {}
         parts.append(ResidualData(inputs, translation, rotation, gripper=gripper, hold=hold, **action_targets))
     fields = ("inputs", "translation", "rotation", *TARGET_FIELDS)
     merged = {f: (None if getattr(parts[0], f) is None else torch.cat([getattr(p, f) for p in parts]))
               for f in fields}
     return ResidualData(**merged, memory=memory)
+
+
+ACTION_SPACE_FIELDS = ("prior_translation", "prior_rotation", "target_cell", "target_bins")
+
+
+@torch.no_grad()
+def action_space_targets(prior: UnimanualPrior, out: PriorOutput, config: ResidualConfig, position: torch.Tensor,
+                         quats: np.ndarray) -> dict[str, torch.Tensor]:
+    """An action-space residual's targets for a batch of the prior's outputs ``out``: the prior's
+    log-probabilities on the lattice around its proposal (B, W^3) and of its rotation bins (B, 3, R), the lattice
+    cell nearest each target ``position`` (B, 3, arm frame) and the target quaternions' (B, 4) rotation bins.
+    The demos (``residual_data``) and the corrector's actions (refinement, Eq. 10) both go through here."""
+    cells = out.position[:, None] + action_lattice(config)[None]
+    return {"prior_translation": prior.translation_scores(out, cells),
+            "prior_rotation": F.log_softmax(out.logits["rotation"].float(), -1),
+            "target_cell": (cells - position[:, None]).norm(dim=-1).argmin(-1),
+            "target_bins": torch.as_tensor(np.stack([quat_to_euler_bins(q, prior.rotation_bin_degrees)
+                                                     for q in quats]))}
 
 
 def episode_memory(samples: ArmSamples, features: torch.Tensor, text: torch.Tensor, threshold: float,
