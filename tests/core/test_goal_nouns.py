@@ -1,11 +1,14 @@
 import pytest
 
-from bimanualshift.core.goal_nouns import extract_goal_nouns, singular
+from bimanualshift.core.goal_nouns import extract_goal_nouns, singular, split_prompt
 
 
 @pytest.mark.parametrize(("instruction", "nouns"), [
-    ("push the red and the blue buttons", ["button"]),
-    ("Push the maroon and the olive buttons.", ["button"]),
+    ("push the red and the blue buttons", ["red button", "blue button"]),
+    ("Push the maroon and the olive buttons.", ["maroon button", "olive button"]),
+    ("push the olive and the violet buttons, then lift the ball", ["olive button", "violet button", "ball"]),
+    ("push the button", ["button"]),
+    ("pick up the small black cube", ["black cube"]),
     ("take the tray out of the oven", ["tray"]),
     ("take tray out of oven", ["tray"]),
     ("open the oven and take out the tray", ["oven", "tray"]),
@@ -18,7 +21,7 @@ from bimanualshift.core.goal_nouns import extract_goal_nouns, singular
     ("sweep the dirt to the dustpan", ["dirt"]),
     ("brush the dirt into the dustpan", ["dirt"]),
     ("open the oven door", ["oven"]),
-    ("slide the gold block onto the target", ["block"]),
+    ("slide the gold block onto the target", ["gold block"]),
     ("pick up the cup and the spoon", ["cup", "spoon"]),
     ("stack the boxes", ["box"]),
     ("put the knives in the drawer", ["knife"]),
@@ -37,3 +40,9 @@ def test_no_noun_is_a_clear_error() -> None:
         extract_goal_nouns("push the red")
     with pytest.raises(ValueError, match="no words"):
         extract_goal_nouns("!!")
+
+
+def test_split_prompt_separates_a_colour_attribute() -> None:
+    assert split_prompt("navy button") == ("navy", "button")
+    assert split_prompt("button") == (None, "button")
+    assert split_prompt("robotic arm") == (None, "robotic arm")

@@ -4,7 +4,7 @@ import h5py
 import numpy as np
 import pytest
 
-from bimanualshift.data.episode import EpisodeFormatError, read_episode, write_episode
+from bimanualshift.data.episode import EpisodeFormatError, episode_is_current, read_episode, write_episode
 
 
 def test_round_trip(bimanual_episode_path: Path, tmp_path: Path) -> None:
@@ -19,6 +19,7 @@ def test_round_trip(bimanual_episode_path: Path, tmp_path: Path) -> None:
         np.testing.assert_array_equal(again[key], value)
     assert again.instruction == ep.instruction and again.seed == ep.seed
     assert again.instance_names == ep.instance_names
+    assert again.instance_colours == ep.instance_colours and len(ep.instance_colours) == 3  # three painted caps
     assert ep.dense is not None and again.dense is not None
     for key, value in ep.dense.items():
         np.testing.assert_array_equal(again.dense[key], value)
@@ -77,3 +78,14 @@ def test_failed_write_leaves_no_file(bimanual_episode_path: Path, tmp_path: Path
     with pytest.raises(EpisodeFormatError, match="dtype"):
         write_episode(tmp_path / "ep.h5", ep)
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_file_without_instance_colours_reads_but_is_not_current(bimanual_episode_path: Path, tmp_path: Path) -> None:
+    """Demos recorded before colours were stored still load (colours unknown); a cache of them is re-collected."""
+    old = write_episode(tmp_path / "old.h5", read_episode(bimanual_episode_path))
+    assert episode_is_current(old)
+    with h5py.File(old, "a") as f:
+        del f.attrs["instance_colours"]
+    assert not episode_is_current(old)
+    assert read_episode(old).instance_colours == {}
+    assert not episode_is_current(tmp_path / "absent.h5")

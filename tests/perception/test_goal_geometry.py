@@ -42,8 +42,12 @@ def test_projection_locates_the_goal_object_of_a_real_scene(bimanual_episode_pat
     obs = KeyframeObservation.from_episode(ep, 0)
     builder = ArmObservationBuilder(VoxelGrid(DEFAULT_ARM_BOUNDS, 16), ArmProjection(SimulatorSegmenter()))
     per_arm = builder.build(obs)
-    # Ground truth from the simulator's instance ids: every pixel of a button, back-projected.
-    buttons = [i for i, n in enumerate(ep.instance_names) if n.startswith("button")]
+    # Ground truth from the simulator's instance ids: every pixel of a named button (the instruction's colours;
+    # the third button is a distractor), back-projected.
+    named = {prompt.split()[0] for prompt in ep.goal_nouns}
+    buttons = [i for i, n in enumerate(ep.instance_names)
+               if n.startswith("button") and named & set(ep.instance_colours[n])]
+    assert len(buttons) == 2
     truth = np.concatenate([depth_to_world_points(obs.depth[c], obs.intrinsics[c], obs.extrinsics[c])[
         np.isin(obs.instance[c], buttons) & (obs.depth[c] > 0)] for c in range(len(obs.depth))])
     for arm in ep.arm_names:

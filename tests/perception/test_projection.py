@@ -10,8 +10,16 @@ from bimanualshift.perception.projection import ArmProjection
 from bimanualshift.perception.segmenters.simulator import SimulatorSegmenter
 
 
+def _buttons(ep, named: bool) -> list[int]:  # noqa: ANN001
+    """Instance ids of the buttons the instruction names (named=True) or of the distractor (False)."""
+    colours = {prompt.split()[0] for prompt in ep.goal_nouns}
+    return [i for i, n in enumerate(ep.instance_names)
+            if n.startswith("button") and bool(colours & set(ep.instance_colours[n])) == named]
+
+
 def test_each_arm_keeps_itself_and_the_goal_and_drops_the_other_arm(bimanual_episode_path: Path) -> None:
     ep = read_episode(bimanual_episode_path)
+    assert len(_buttons(ep, True)) == 2 and len(_buttons(ep, False)) == 1
     projection = ArmProjection(SimulatorSegmenter())
     for k in range(ep.num_keyframes):
         obs = KeyframeObservation.from_episode(ep, k)
@@ -19,11 +27,23 @@ def test_each_arm_keeps_itself_and_the_goal_and_drops_the_other_arm(bimanual_epi
         for arm, other in (("left", "right"), ("right", "left")):
             own = obs.instance == ep.instance_names.index(f"arm_{arm}")
             theirs = obs.instance == ep.instance_names.index(f"arm_{other}")
-            goal = np.isin(obs.instance, [i for i, n in enumerate(ep.instance_names) if n.startswith("button")])
+            goal = np.isin(obs.instance, _buttons(ep, True))
+            distractor = np.isin(obs.instance, _buttons(ep, False))
             assert masks[arm][own].mean() > 0.95
             assert masks[arm][goal].mean() > 0.99
             assert masks[arm][theirs].mean() < 0.05
+            assert not masks[arm][distractor].any()  # "push the blue and the navy buttons": not the third
     assert projection.diagnostics.no_goal_found == 0
+
+
+def test_colour_prompts_match_every_instance_when_colours_are_unknown(bimanual_episode_path: Path) -> None:
+    """A recording without painted colours (a real camera's, an older file's) keeps every button, as before."""
+    ep = read_episode(bimanual_episode_path)
+    ep.instance_colours = {}
+    obs = KeyframeObservation.from_episode(ep, 0)
+    masks = ArmProjection(SimulatorSegmenter()).masks_2d(obs)
+    every_button = np.isin(obs.instance, [i for i, n in enumerate(ep.instance_names) if n.startswith("button")])
+    assert masks["left"][every_button].mean() > 0.99
 
 
 def test_projected_voxels_are_a_subset_of_the_global_scene(bimanual_episode_path: Path) -> None:

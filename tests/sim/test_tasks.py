@@ -7,7 +7,7 @@ from collections.abc import Iterator
 import numpy as np
 import pytest
 
-from bimanualshift.core.goal_nouns import extract_goal_nouns
+from bimanualshift.core.goal_nouns import extract_goal_nouns, split_prompt
 from bimanualshift.sim.env import InvalidActionError, ManipulationEnv
 from bimanualshift.sim.task import TASKS, SimHandle, Task, register_task, task_names
 
@@ -158,6 +158,28 @@ def test_goal_nouns_cover_the_instructions_object(env: ManipulationEnv) -> None:
         env.reset(seed=seed, options={"render": False})
         instruction = env.task.instruction()
         assert set(extract_goal_nouns(instruction)) <= set(env.task.goal_nouns()), instruction
+
+
+def test_every_goal_noun_is_a_class_of_the_scene(env: ManipulationEnv) -> None:
+    """The simulator segmenter finds a goal by its class: a goal noun no instance carries is never seen, and the
+    projection would leave each arm only itself and the table."""
+    env.reset(seed=0, options={"render": False})
+    for prompt in env.task.goal_nouns():
+        assert split_prompt(prompt)[1] in env.instances.classes, (prompt, env.instances.classes)
+
+
+def test_every_colour_prompt_names_a_painted_object_of_its_class(env: ManipulationEnv) -> None:
+    """"navy button" must find a navy button: the projection would otherwise keep nothing of the goal."""
+    for seed in range(3):
+        env.reset(seed=seed, options={"render": False})
+        painted = env.instance_colours()
+        for prompt in env.task.goal_nouns():
+            colour, noun = split_prompt(prompt)
+            if colour is None:
+                continue
+            owners = [n for n, cls in zip(env.instances.names, (env.instances.classes[c] for c in
+                                                                env.instances.instance_class)) if cls == noun]
+            assert any(colour in painted.get(n, []) for n in owners), (env.task.instruction(), painted)
 
 
 def test_unknown_task_error() -> None:

@@ -9,8 +9,12 @@ The rule set, in order:
    "take *out*") up to the first preposition, particle or complement that starts a place, an instrument or a
    result ("out of", "into", "to", "onto", "from", "with", "between", "straight", ...).
    "take the tray out of the oven" -> "the tray".
-4. The object is split into coordinated parts at "and" / "or"; in each part determiners, colours, sizes
-   and other known modifiers are dropped and the last remaining word is the head noun.
+4. The object is split into coordinated parts at "and" / "or"; in each part determiners, sizes and other
+   known modifiers are dropped and the last remaining word is the head noun. A colour word is kept as the
+   part's attribute and prefixed to its noun ("the blue button" -> "blue button"), the way a referring
+   expression is given to an open-vocabulary detector: when several objects share the noun (three buttons,
+   two of them named), only the named ones are goals. A part with a colour but no noun of its own shares
+   the next part's noun ("the blue and the navy buttons" -> "blue button", "navy button").
 5. A part noun names its whole: "both ends *of the rope*" -> rope, "the oven door" -> oven.
 6. Head nouns are singularised ("buttons" -> "button", "brushes" -> "brush"; uncountable words stay) and
    de-duplicated in order.
@@ -33,6 +37,7 @@ PARTICLES = {"up", "out", "down", "off", "over", "away", "back", "open", "apart"
 PREPOSITIONS = {"of", "into", "to", "onto", "from", "in", "on", "with", "towards", "toward", "between", "at",
                 "inside", "under", "above", "below", "beside", "next", "using", "by", "until", "so"}
 COORDINATORS = {"and", "or", "then"}
+COLOURS = {*TRAIN_COLOURS, *UNSEEN_COLOURS}
 COMPLEMENTS = {"straight", "flat", "level", "tight", "closed", "shut", "upright", "together"}
 VERBS = {"push", "press", "lift", "pick", "take", "put", "place", "open", "close", "sweep", "slide", "pull",
          "straighten", "grasp", "grab", "hold", "drag", "remove", "get", "move", "stack", "brush", "lay", "stretch",
@@ -91,16 +96,31 @@ def _object_nouns(clause: list[str]) -> list[str]:
         if word in PREPOSITIONS or word in COMPLEMENTS or (word in PARTICLES and obj):
             break
         obj.append(word)
-    nouns = []
+    parts: list[tuple[str | None, str | None]] = []  # (colour, head noun) per coordinated part
     part: list[str] = []
     for word in [*obj, "and"]:
         if word in COORDINATORS:
+            colours = [w for w in part if w in COLOURS]
             content = [w for w in part if w not in DETERMINERS and w not in MODIFIERS]
             if len(content) >= 2 and content[-1] in PART_NOUNS:  # "the oven door": the whole is the goal
                 content = content[:-1]
-            if content:
-                nouns.append(singular(content[-1]))
+            if content or colours:
+                parts.append((colours[-1] if colours else None, singular(content[-1]) if content else None))
             part = []
         else:
             part.append(word)
+    nouns = []
+    for i, (colour, noun) in enumerate(parts):
+        # "the blue and the navy buttons": a colour without a noun takes the next part's noun
+        noun = noun or next((n for _, n in parts[i + 1:] if n), None)
+        if noun:
+            nouns.append(f"{colour} {noun}" if colour else noun)
     return nouns
+
+
+def split_prompt(prompt: str) -> tuple[str | None, str]:
+    """A goal prompt as (colour attribute or None, noun): "navy button" -> ("navy", "button")."""
+    words = prompt.split()
+    if len(words) >= 2 and words[0] in COLOURS:
+        return words[0], " ".join(words[1:])
+    return None, prompt

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bimanualshift.data.episode import Episode, episode_path, write_episode
+from bimanualshift.data.episode import Episode, episode_is_current, episode_path, write_episode
 from bimanualshift.sim.env import ManipulationEnv
 from bimanualshift.sim.env_cache import cached_env
 from bimanualshift.utils.workers import run_jobs
@@ -47,6 +47,7 @@ def episode_from_rollout(env: ManipulationEnv, seed: int, observations: list[dic
         instance_names=env.instances.names, class_names=env.instances.classes,
         goal_nouns=env.task.goal_nouns(),
         arm_bases={arm: list(f.position) for arm, f in env.arm_frames.items()}, arrays=arrays, dense=dense,
+        instance_colours=env.instance_colours(),
     )
 
 
@@ -89,7 +90,7 @@ def collect(tasks: Iterable[str], seeds: Iterable[int], out: str | Path, workers
     for task in tasks:
         stats[task] = {"attempted": 0, "succeeded": 0, "skipped": 0}
         for seed in seeds:
-            if skip_existing and episode_path(out, task, seed).exists():
+            if skip_existing and episode_is_current(episode_path(out, task, seed)):
                 stats[task]["skipped"] += 1
                 continue
             jobs.append(CollectJob(task, int(seed), str(out), image_size))

@@ -3,7 +3,8 @@
 Layout of ``<task>/episode_<seed>.h5`` (K keyframes, C cameras, A arms, H x W images)::
 
     attrs   format="bimanualshift-episode", version, task, seed, instruction, success,
-            arm_names, camera_names, instance_names, class_names, goal_nouns, arm_bases (JSON)
+            arm_names, camera_names, instance_names, class_names, goal_nouns, arm_bases (JSON),
+            instance_colours (JSON, optional: instance name -> painted colour names; absent before 2026-12)
     rgb          (K, C, H, W, 3) uint8    colour images, row 0 at the top
     depth        (K, C, H, W)    float32  metres along the optical axis
     instance     (K, C, H, W)    int16    index into attrs["instance_names"] (0 = background)
@@ -37,6 +38,7 @@ from bimanualshift.utils.io import atomic_writer
 FORMAT_NAME = "bimanualshift-episode"
 FORMAT_VERSION = 1
 JSON_ATTRS = ("arm_names", "camera_names", "instance_names", "class_names", "goal_nouns", "arm_bases")
+OPTIONAL_JSON_ATTRS = ("instance_colours",)  # files written without them still read (as empty)
 SCALAR_ATTRS = ("task", "seed", "instruction", "success")
 # name -> (dtype, shape after the keyframe axis, with symbols C, A, H, W)
 ARRAYS: dict[str, tuple[str, tuple[str | int, ...]]] = {
@@ -72,6 +74,7 @@ class Episode:
     goal_nouns: list[str]
     arm_bases: dict[str, list[float]]
     arrays: dict[str, np.ndarray] = field(default_factory=dict)
+    instance_colours: dict[str, list[str]] = field(default_factory=dict)
     dense: dict[str, np.ndarray] | None = None  # the control-step trajectory, when it was recorded
 
     @property
@@ -96,7 +99,7 @@ def write_episode(path: str | Path, episode: Episode) -> Path:
         f.attrs["version"] = FORMAT_VERSION
         for key in SCALAR_ATTRS:
             f.attrs[key] = getattr(episode, key)
-        for key in JSON_ATTRS:
+        for key in (*JSON_ATTRS, *OPTIONAL_JSON_ATTRS):
             f.attrs[key] = json.dumps(getattr(episode, key))
         for name, array in episode.arrays.items():
             f.create_dataset(name, data=array, compression="gzip", compression_opts=4,
@@ -135,7 +138,7 @@ def read_episode(path: str | Path) -> Episode:
     except (OSError, KeyError, ValueError) as exc:
         raise EpisodeFormatError(f"{path}: cannot be read as HDF5 ({exc}); the file is probably truncated or "
                                  "corrupt; delete it and collect it again") from exc
-    meta: dict[str, Any] = {k: json.loads(attrs[k]) for k in JSON_ATTRS}
+    meta: dict[str, Any] = {k: json.loads(attrs[k]) for k in (*JSON_ATTRS, *OPTIONAL_JSON_ATTRS) if k in attrs}
     episode = Episode(
         task=str(attrs["task"]), seed=int(attrs["seed"]), instruction=str(attrs["instruction"]),
         success=bool(attrs["success"]), arrays=arrays, dense=dense, **meta,
@@ -180,3 +183,13 @@ def _validate_dense(dense: dict[str, np.ndarray], n_arms: int, where: str) -> No
 
 def list_episodes(root: str | Path, task: str) -> list[Path]:
     return sorted((Path(root) / task).glob("episode_*.h5"))
+
+
+def episode_is_current(path: str | Path) -> bool:
+    """True if ``path`` is a readable episode file carrying every field this version writes (a cache of demos
+    collected before a field was added is collected again rather than silently used without it)."""
+    try:
+        with h5py.File(path, "r") as f:
+            return f.attrs.get("format") == FORMAT_NAME and all(k in f.attrs for k in OPTIONAL_JSON_ATTRS)
+    except (OSError, KeyError, ValueError):
+        return False

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -20,6 +20,9 @@ class SceneInfo:
     class_names: list[str]
     goal_nouns: list[str]
     arm_bases: dict[str, list[float]]
+    # instance name -> the colour names painted on it (the simulator's ground truth, like its class labels);
+    # empty when unknown (real cameras, older recordings): a colour prompt then matches every instance of its noun
+    instance_colours: dict[str, list[str]] = field(default_factory=dict)
 
 
 @dataclass
@@ -59,7 +62,7 @@ class KeyframeObservation:
 
 def scene_of_episode(episode: Episode) -> SceneInfo:
     return SceneInfo(episode.camera_names, episode.arm_names, episode.instance_names, episode.class_names,
-                     episode.goal_nouns, episode.arm_bases)
+                     episode.goal_nouns, episode.arm_bases, episode.instance_colours)
 
 
 def scene_of_env(env: Any) -> SceneInfo:
@@ -68,4 +71,5 @@ def scene_of_env(env: Any) -> SceneInfo:
         raise RuntimeError("reset the environment before describing its scene: the goal nouns come from the "
                            "episode's instruction")
     return SceneInfo(list(env.camera_names), list(env.arm_names), env.instances.names, env.instances.classes,
-                     env.task.goal_nouns(), {arm: list(f.position) for arm, f in env.arm_frames.items()})
+                     env.task.goal_nouns(), {arm: list(f.position) for arm, f in env.arm_frames.items()},
+                     env.instance_colours())

@@ -165,6 +165,7 @@ def export_lerobot(episodes: list[Episode], out: str | Path, robot_type: str = "
             META_PREFIX + "arm_bases": json.dumps(ep.arm_bases), META_PREFIX + "instance_names":
                 json.dumps(ep.instance_names), META_PREFIX + "class_names": json.dumps(ep.class_names),
             META_PREFIX + "goal_nouns": json.dumps(ep.goal_nouns),
+            META_PREFIX + "instance_colours": json.dumps(ep.instance_colours),
             META_PREFIX + "dense": json.dumps({n: v.tolist() for n, v in ep.dense.items()}) if ep.dense else "",
         }
         for cam in cams:
@@ -351,5 +352,6 @@ def import_lerobot(root: str | Path, arm_bases: dict[str, list[float]] | None = 
             camera_names=cams, instance_names=json.loads(meta.get("instance_names", "[]")),
             class_names=json.loads(meta.get("class_names", "[]")), goal_nouns=json.loads(meta.get("goal_nouns", "[]")),
             arm_bases=json.loads(meta["arm_bases"]) if "arm_bases" in meta else dict(arm_bases or {}),
+            instance_colours=json.loads(meta.get("instance_colours", "{}")),
             arrays=arrays, dense={n: np.asarray(v, np.float32) for n, v in dense.items()} if dense else None))
     return out

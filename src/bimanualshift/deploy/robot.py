@@ -127,6 +127,7 @@ class EpisodeContext:
     goal_nouns: list[str] | None = None
     instance_names: list[str] | None = None
     class_names: list[str] | None = None
+    instance_colours: dict[str, list[str]] | None = None  # a simulator's painted colours per instance
 
 
 def observation_from_robot(robot: Robot, reading: dict[str, Any], context: EpisodeContext,
@@ -148,7 +149,8 @@ def observation_from_robot(robot: Robot, reading: dict[str, Any], context: Episo
     proprio = np.stack([np.r_[np.asarray(reading[f"{arm}_ee_pose"]), reading[f"{arm}_gripper_open"]]
                         for arm in arms]).astype(np.float32)
     scene = SceneInfo(cams, arms, context.instance_names or [], context.class_names or [],
-                      context.goal_nouns or [], {arm: list(calibration.arm_bases[arm]) for arm in arms})
+                      context.goal_nouns or [], {arm: list(calibration.arm_bases[arm]) for arm in arms},
+                      dict(context.instance_colours or {}))
     return KeyframeObservation(
         rgb, np.stack([reading[f"{c}_depth"] for c in cams]),
         np.stack([reading[f"{c}_instance"] for c in cams]) if maps else zeros,

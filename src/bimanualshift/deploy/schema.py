@@ -16,6 +16,8 @@ Observation (a msgpack map, arrays as ``codec`` packs them)::
         class       int (H, W), optional: class ids (index into class_names)
     instance_names  [str]         with instance maps
     class_names     [str]         with class maps
+    instance_colours {str: [str]} optional, with instance maps: instance name -> its painted colour names (the
+                                  simulator's; a colour prompt such as "navy button" is matched against them)
     arms            {name: arm}, each arm (world frame):
         pose        float (7,)    end effector x, y, z, qx, qy, qz, qw
         gripper_open float        1 open, 0 closed
@@ -192,6 +194,13 @@ def parse_observation(msg: Any) -> ParsedObservation:
             if top >= max(len(names), 1) or min(int(a.min()) for a in ids) < 0 or top > np.iinfo(np.int16).max:
                 raise SchemaError(f"cameras.*.{field}", f"ids in [0, {len(names)}) (one per {field}_names entry)",
                                   f"ids up to {top}")
+    colours: dict[str, list[str]] = {}
+    if "instance_colours" in msg:
+        raw = msg["instance_colours"]
+        if not isinstance(raw, dict) or len(raw) > MAX_NAMES or not all(isinstance(k, str) for k in raw):
+            raise SchemaError("instance_colours", "a map from instance name to a list of colour names",
+                              describe(raw))
+        colours = {k: _names(v, f"instance_colours.{k}") for k, v in raw.items()}
 
     arms = _get(msg, "arms")
     if not isinstance(arms, dict) or not 1 <= len(arms) <= MAX_ARMS:
@@ -212,7 +221,7 @@ def parse_observation(msg: Any) -> ParsedObservation:
 
     n_cam = len(rgb)
     h, w = size  # type: ignore[misc]
-    scene = SceneInfo(list(cameras), list(arms), instance_names, class_names, list(nouns), bases)
+    scene = SceneInfo(list(cameras), list(arms), instance_names, class_names, list(nouns), bases, colours)
     obs = KeyframeObservation(
         np.stack(rgb), np.stack(depth),
         np.stack(instance).astype(np.int16) if maps else np.zeros((n_cam, h, w), np.int16),
@@ -240,6 +249,8 @@ def observation_message(obs: KeyframeObservation, episode_id: str, with_maps: bo
         msg["goal_nouns"] = list(obs.scene.goal_nouns)
     if with_maps:
         msg["instance_names"], msg["class_names"] = list(obs.scene.instance_names), list(obs.scene.class_names)
+        if obs.scene.instance_colours:
+            msg["instance_colours"] = {k: list(v) for k, v in obs.scene.instance_colours.items()}
     return msg
 
 

@@ -66,7 +66,7 @@ class MujocoRobot(Robot):
         for a, arm in enumerate(self.arm_names):
             self.filters[arm].start(self._obs["proprio"][a, :7], float(self._obs["proprio"][a, 7]))
         return EpisodeContext(env.task.instruction(), f"{self.task_name}-{seed}", env.task.goal_nouns(),
-                              env.instances.names, env.instances.classes)
+                              env.instances.names, env.instances.classes, env.instance_colours())
 
     def expert_keyframe_count(self) -> int:
         return len(self._env().expert_keyframes())

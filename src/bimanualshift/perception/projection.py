@@ -112,13 +112,15 @@ class ArmProjection:
         out = {arm: np.zeros(obs.depth.shape, dtype=bool) for arm in arms}
         goal = np.zeros(obs.depth.shape, dtype=bool)
         prompts = [ARM_CLASS, *scene.goal_nouns, SUPPORT_CLASS]
+        colours = [scene.instance_colours.get(name, []) for name in scene.instance_names] \
+            if scene.instance_colours else None
         has_depth = obs.depth > 0  # False for NaN too
         for c, camera in enumerate(scene.camera_names):
             self.diagnostics.cameras += 1
             if not has_depth[c].any():
                 self.diagnostics.missing_depth += 1  # nothing to back-project: the camera adds no voxels
                 continue
-            view = CameraView(obs.rgb[c], obs.instance[c], obs.class_ids[c], scene.class_names)
+            view = CameraView(obs.rgb[c], obs.instance[c], obs.class_ids[c], scene.class_names, colours)
             detections = self.segmenter.segment(view, prompts)
             shared = np.zeros(obs.depth.shape[1:], dtype=bool)
             arm_masks = []

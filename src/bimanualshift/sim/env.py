@@ -176,6 +176,10 @@ class ManipulationEnv(gym.Env):
         mujoco.mj_forward(self.model, self.data)
 
     # ---- observation -----------------------------------------------------------------------------------
+    def instance_colours(self) -> dict[str, list[str]]:
+        """Instance name -> the named colours painted on it this episode (what a colour prompt matches)."""
+        return self.instances.painted_colours(self.model)
+
     def proprio(self) -> np.ndarray:
         rows = []
         for i, arm in enumerate(self.arm_names):

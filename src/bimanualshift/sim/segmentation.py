@@ -11,9 +11,11 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
+from bimanualshift.core.colours import TRAIN_COLOURS, UNSEEN_COLOURS
 from bimanualshift.sim.task import Task
 
 ARM_CLASS = "robotic arm"
+NAMED_COLOURS = {**TRAIN_COLOURS, **UNSEEN_COLOURS}
 BACKGROUND = "background"
 
 
@@ -41,7 +43,10 @@ class SceneInstances:
             elif root == "table":
                 name, cls = "table", "table"
             else:
-                name, cls = task.instance_name(root), task.instance_class(root)
+                # the class of the instance's name, not of the root body's: a rope's root is its first
+                # segment ("rope_B_first"), its instance "rope" and so its class "rope", the goal noun
+                name = task.instance_name(root)
+                cls = task.instance_class(name)
             if cls not in classes:
                 classes.append(cls)
             root_instance[body] = len(names)
@@ -52,6 +57,21 @@ class SceneInstances:
             dtype=np.int16,
         )
         return SceneInstances(names, classes, np.asarray(instance_class, np.int16), geom_instance)
+
+    def painted_colours(self, model: mujoco.MjModel) -> dict[str, list[str]]:
+        """Instance name -> the named colours (``core.colours``) some geom of it is painted exactly, in palette
+        order: the ground-truth attribute a colour prompt ("navy button") is matched against. Read after the
+        episode's reset: tasks paint their objects there."""
+        names = list(NAMED_COLOURS)
+        palette = np.asarray(list(NAMED_COLOURS.values()), dtype=np.float64)
+        # (geoms, colours): which palette colour each geom's RGB is (set_rgb stores it as float32)
+        match = np.abs(model.geom_rgba[:, None, :3].astype(np.float64) - palette[None]).max(-1) < 1e-3
+        out: dict[str, list[str]] = {}
+        for instance in range(1, len(self.names)):
+            painted = match[self.geom_instance == instance].any(0)
+            if painted.any():
+                out[self.names[instance]] = [names[i] for i in np.flatnonzero(painted)]
+        return out
 
     def instance_of_geom(self, geom_ids: np.ndarray) -> np.ndarray:
         lut = np.r_[self.geom_instance, 0]  # index -1 (no geom) maps to background

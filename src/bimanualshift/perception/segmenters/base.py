@@ -23,6 +23,7 @@ class CameraView:
     instance: np.ndarray | None = None  # (H, W) int
     class_ids: np.ndarray | None = None  # (H, W) int
     class_names: list[str] | None = None
+    instance_colours: list[list[str]] | None = None  # instance id -> its painted colour names (simulator only)
 
 
 class Segmenter(Protocol):

@@ -1,15 +1,17 @@
 """A segmenter that reads the simulator's labels but answers like an open-vocabulary detector would.
 
 It returns one unlabelled "robotic arm" candidate per visible robot (never "left" or "right": telling the
-arms apart is the projection's job) and one mask per visible object whose class matches a goal prompt.
+arms apart is the projection's job) and one mask per visible object whose class matches a goal prompt. A
+prompt with a colour attribute ("navy button") matches only the objects of that class painted that colour, as
+a grounding detector answers a referring expression; when the view carries no colours it matches the class.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from bimanualshift.core.goal_nouns import split_prompt
 from bimanualshift.perception.segmenters.base import CameraView, Detection
-from bimanualshift.sim.segmentation import ARM_CLASS
 
 
 class SimulatorSegmenter:
@@ -25,8 +27,13 @@ class SimulatorSegmenter:
         counts = np.bincount(pair.ravel(), minlength=len(view.class_names) * n_inst).reshape(-1, n_inst)
         detections = []
         for prompt in prompts:
-            if prompt not in view.class_names:
+            colour, noun = split_prompt(prompt)
+            if prompt in view.class_names:
+                colour, noun = None, prompt
+            if noun not in view.class_names:
                 continue
-            for inst in np.flatnonzero(counts[view.class_names.index(prompt)] >= self.min_pixels):
-                detections.append(Detection(view.instance == inst, ARM_CLASS if prompt == ARM_CLASS else prompt, 1.0))
+            for inst in np.flatnonzero(counts[view.class_names.index(noun)] >= self.min_pixels):
+                if colour is not None and view.instance_colours and colour not in view.instance_colours[inst]:
+                    continue
+                detections.append(Detection(view.instance == inst, prompt, 1.0))
         return detections

@@ -53,9 +53,6 @@ class ButtonsThenLiftBall(Task):
         a, b = self.episode["named"]
         return f"push the {c[a]} and the {c[b]} buttons, then lift the ball"
 
-    def goal_nouns(self) -> list[str]:
-        return ["button", "ball"]
-
     def on_control_step(self, sim: SimHandle) -> None:
         latch_presses(sim, BUTTONS, self.episode["pressed"])
 

@@ -39,7 +39,7 @@ class SlideBlock(Task):
         return f"slide the {self.episode['colour']} block onto the target"
 
     def goal_nouns(self) -> list[str]:
-        return ["block", "target"]
+        return [*super().goal_nouns(), "target"]  # "gold block", and where it goes
 
     def instance_class(self, instance: str) -> str:
         return instance
