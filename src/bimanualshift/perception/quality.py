@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from bimanualshift.core.goal_nouns import split_prompt
 from bimanualshift.data.frames import KeyframeObservation
 from bimanualshift.geometry.voxels import VoxelGrid
 from bimanualshift.perception.observation import world_point_cloud
@@ -60,8 +61,23 @@ def measure_keyframe(obs: KeyframeObservation, projection: ArmProjection, tally:
 
 
 
-def goal_instances(instance_class: np.ndarray, class_names: list[str], goal_nouns: list[str]) -> list[int]:
-    return [i for i, c in enumerate(instance_class) if class_names[int(c)] in goal_nouns]
+def goal_instances(instance_class: np.ndarray, class_names: list[str], goal_nouns: list[str],
+                   instance_names: list[str], colours: dict[str, list[str]]) -> list[int]:
+    """The instance ids the goal prompts name, read as the simulator segmenter reads them.
+
+    "navy button" names the buttons painted navy; a plain noun names its whole class. A prompt that names
+    no instance raises: the ground truth would silently leave that goal out of every figure.
+    """
+    found: set[int] = set()
+    for prompt in goal_nouns:
+        colour, noun = (None, prompt) if prompt in class_names else split_prompt(prompt)
+        named = [i for i, c in enumerate(instance_class) if class_names[int(c)] == noun
+                 and (colour is None or colour in colours.get(instance_names[i], []))]
+        if not named:
+            raise ValueError(f"goal prompt {prompt!r} names no instance of this scene (classes: {class_names}); "
+                             "give the task a goal noun that is one of its classes")
+        found.update(named)
+    return sorted(found)
 
 
 def projection_quality(task: str, seeds: list[int], segmenters: list[str], image_size: int = 128,
@@ -80,7 +96,8 @@ def projection_quality(task: str, seeds: list[int], segmenters: list[str], image
     for seed in tqdm(seeds, desc=f"projection {task}", unit="ep", disable=not progress):
         obs, _ = env.reset(seed=seed)
         scene = scene_of_env(env)
-        goals = goal_instances(env.instances.instance_class, env.instances.classes, scene.goal_nouns)
+        goals = goal_instances(env.instances.instance_class, env.instances.classes, scene.goal_nouns,
+                               scene.instance_names, scene.instance_colours)
         for step, keyframe in enumerate([None, *env.expert_keyframes()]):
             if keyframe is not None:
                 obs, *_ = env.step(env.action_from_keyframe(keyframe))
