@@ -94,7 +94,7 @@ def _residual_method(name: str, description: str, refine: bool = True, trains_as
         return _finished(refined) or run_refinement(RefineConfig(
             checkpoint=str(best), out=str(refined), start=request.demos, seed=request.seed,
             episodes=int(request.overrides.get("refine_episodes", REFINE_EPISODES)),
-            steps=int(request.overrides.get("refine_steps", RefineConfig.steps))))
+            steps=int(request.overrides.get("refine_steps", RefineConfig.steps)), workers=request.workers))
 
     def load(checkpoint: Path | None, request: TrainRequest) -> Policy:
         from bimanualshift.methods.bimanualshift import load_bimanualshift

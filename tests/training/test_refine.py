@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import torch
+from safetensors import safe_open
 from safetensors.torch import load_file
 
 from bimanualshift.data.frames import KeyframeObservation, scene_of_env
@@ -20,7 +21,14 @@ from bimanualshift.residual.manager import action_lattice
 from bimanualshift.sim.env import ManipulationEnv
 from bimanualshift.training.checkpoint import latest_checkpoint
 from bimanualshift.training.configs import RefineConfig, TrainConfig
-from bimanualshift.training.refine import expert_actions, refine, repeats, run_policy, strays
+from bimanualshift.training.refine import (
+    collect_refinement,
+    expert_actions,
+    refine,
+    repeats,
+    run_policy,
+    strays,
+)
 from bimanualshift.training.residual_trainer import train_residual
 from bimanualshift.utils.config_files import config_from_flat
 
@@ -115,6 +123,23 @@ def test_refine_corrects_grows_memory_resumes_and_keeps_prior_frozen(trained: Pa
         assert torch.equal(value, prior_after[key]), key
     assert json.loads((best / "config.json").read_text())["refined_from"] == str(trained)
     load_bimanualshift(best, default_text_encoder())  # the refined checkpoint loads like a trained one
+
+
+def test_scenes_rolled_out_in_two_workers_match_one(trained: Path, tmp_path: Path) -> None:
+    policy = load_bimanualshift(trained, default_text_encoder())
+    files = {}
+    for workers in (1, 2):
+        cfg = RefineConfig(checkpoint=str(trained), out=str(tmp_path / f"w{workers}"), episodes=2, start=5,
+                           max_keyframes=2, workers=workers)
+        paths = collect_refinement(cfg, policy, "push_two_buttons")
+        assert [p.name for p in paths] == ["seed_000005.safetensors", "seed_000006.safetensors"]
+        files[workers] = paths
+    for one, two in zip(files[1], files[2]):
+        with safe_open(str(one), framework="pt") as a, safe_open(str(two), framework="pt") as b:
+            assert a.metadata() == b.metadata()
+            assert set(a.keys()) == set(b.keys())
+            for key in a.keys():
+                assert torch.equal(a.get_tensor(key), b.get_tensor(key)), key
 
 
 def test_an_action_space_residual_is_corrected_in_its_own_action_space(demo_root: Path, trained: Path,

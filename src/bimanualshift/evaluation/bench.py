@@ -94,8 +94,7 @@ def _request(cfg: BenchConfig, task: str, method: str, training: bool = True) ->
     return TrainRequest(task=task, data=f"{cfg.data}/train", validation_data=f"{cfg.data}/validation",
                         demos=cfg.demos, prior=cfg.prior, out=f"{cfg.runs}/{task}/{get_method(method).run_name}",
                         steps=int(cfg.method_steps.get(method) or cfg.steps or get_method(method).steps),
-                        seed=cfg.seed,
-                        overrides=overrides)
+                        seed=cfg.seed, overrides=overrides, workers=cfg.workers)
 
 
 # The settings that change what a recorded episode or a trained run measures. A results folder holds the episodes
@@ -132,9 +131,9 @@ def check_results_folder(cfg: BenchConfig) -> None:
 
 
 def check_training_run(request: TrainRequest) -> None:
-    """A training run is resumed or reused only for the request that started it (paths aside: data and runs may
-    move)."""
-    settings = {k: v for k, v in asdict(request).items() if k not in ("data", "validation_data", "out")}
+    """A training run is resumed or reused only for the request that started it (paths and workers aside: data and
+    runs may move, and the number of processes changes nothing)."""
+    settings = {k: v for k, v in asdict(request).items() if k not in ("data", "validation_data", "out", "workers")}
     # refinement's settings belong to its own stage (``refine/``): the full method and its unrefined ablation
     # share the training run before it
     refine = {k: v for k, v in request.overrides.items() if k.startswith("refine_")}

@@ -180,3 +180,4 @@ class RefineConfig:
     hold_weight: float = 0.01
     checkpoint_every: int = 100
     seed: int = 0
+    workers: int = 1  # processes rolling the scenes out (the same scenes and result whatever the number)

@@ -54,6 +54,7 @@ from bimanualshift.training.residual_trainer import (
 )
 from bimanualshift.utils.config_files import config_from_dict, load_safetensors, read_json_file
 from bimanualshift.utils.io import atomic_write_json, atomic_writer
+from bimanualshift.utils.workers import run_jobs
 
 
 @dataclass
@@ -147,28 +148,55 @@ def _save_scene(path: Path, record: dict, correction: Correction, trajectory: np
         save_file({k: v.contiguous() for k, v in tensors.items()}, str(tmp), metadata={"record": json.dumps(record)})
 
 
+def _refine_scene(env: ManipulationEnv, policy: BimanualShift, cfg: RefineConfig, seed: int, path: Path) -> None:
+    """Roll one training scene out, have the expert correct it if it fails, and save it to ``path``."""
+    limit = cfg.max_keyframes or env.task.max_keyframes
+    success, trajectory, key, correction = run_policy(env, policy, seed, limit)
+    record: dict[str, Any] = {"seed": seed, "instruction": env.task.instruction(), "policy_success": success}
+    if not success:
+        plan = expert_actions(env, seed)
+        success, trajectory, key, correction = run_policy(env, policy, seed, len(plan), plan,
+                                                          cfg.tolerance_m, cfg.tolerance_deg)
+        record["corrected_success"] = success
+    record["corrections"] = len(correction.inputs)
+    _save_scene(path, record, correction, trajectory if success else None, key)
+
+
+# A worker process loads the policy once and keeps it for every scene it is given.
+_WORKER: dict[str, Any] = {}
+
+
+def refine_scene_job(job: tuple[dict[str, Any], str, int, str]) -> int:
+    """A worker's job: (refine config as a dict, task, seed, scene file). The policy comes from the config's
+    checkpoint, as it was before any refinement (the memory grows only after every scene is rolled out)."""
+    cfg_dict, task, seed, path = job
+    cfg = RefineConfig(**cfg_dict)
+    if _WORKER.get("key") != (cfg.checkpoint, task):
+        if "env" in _WORKER:
+            _WORKER["env"].close()
+        _WORKER.update(key=(cfg.checkpoint, task), policy=load_bimanualshift(Path(cfg.checkpoint)),
+                       env=ManipulationEnv(task))
+    _refine_scene(_WORKER["env"], _WORKER["policy"], cfg, seed, Path(path))
+    return seed
+
+
 def collect_refinement(cfg: RefineConfig, policy: BimanualShift, task: str) -> list[Path]:
-    """Roll out and correct every scene not yet done; one safetensors file per scene under ``out/scenes``."""
+    """Roll out and correct every scene not yet done; one safetensors file per scene under ``out/scenes``.
+    Scenes are independent (the policy and its memory stay fixed until all are done), so ``cfg.workers``
+    processes roll them out in parallel with the same result as one."""
     scenes = Path(cfg.out) / "scenes"
     scenes.mkdir(parents=True, exist_ok=True)
+    seeds = split_seeds("train", cfg.episodes, cfg.start)
+    paths = [scenes / f"seed_{seed:06d}.safetensors" for seed in seeds]
+    todo = [(seed, path) for seed, path in zip(seeds, paths) if not path.is_file()]
+    if cfg.workers > 1 and len(todo) > 1:
+        jobs = [(asdict(cfg), task, seed, str(path)) for seed, path in todo]
+        run_jobs(refine_scene_job, jobs, workers=min(cfg.workers, len(todo)), desc="refinement rollouts",
+                 chunksize=1)
+        return paths
     env = ManipulationEnv(task)
-    paths = []
-    bar = tqdm(split_seeds("train", cfg.episodes, cfg.start), desc="refinement rollouts", unit="scene")
-    for seed in bar:
-        path = scenes / f"seed_{seed:06d}.safetensors"
-        paths.append(path)
-        if path.is_file():
-            continue
-        limit = cfg.max_keyframes or env.task.max_keyframes
-        success, trajectory, key, correction = run_policy(env, policy, seed, limit)
-        record: dict[str, Any] = {"seed": seed, "instruction": env.task.instruction(), "policy_success": success}
-        if not success:
-            plan = expert_actions(env, seed)
-            success, trajectory, key, correction = run_policy(env, policy, seed, len(plan), plan,
-                                                              cfg.tolerance_m, cfg.tolerance_deg)
-            record["corrected_success"] = success
-        record["corrections"] = len(correction.inputs)
-        _save_scene(path, record, correction, trajectory if success else None, key)
+    for seed, path in tqdm(todo, desc="refinement rollouts", unit="scene"):
+        _refine_scene(env, policy, cfg, seed, path)
     env.close()
     return paths
 

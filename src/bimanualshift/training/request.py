@@ -17,3 +17,4 @@ class TrainRequest:
     steps: int  # training steps (the benchmark: BenchConfig.steps, else the method's own)
     seed: int = 0
     overrides: dict[str, Any] = field(default_factory=dict)  # the method's own training options
+    workers: int = 1  # processes a trainer may roll out in (a resource: not part of what the run measures)
