@@ -44,6 +44,22 @@ def test_overrides_apply_to_every_run_and_a_demos_override_relabels() -> None:
     assert [label for label, _ in study_plan("few_shot", {"episodes": 5})] == ["5 demos", "15 demos", "30 demos"]
 
 
+def test_tasks_select_within_table1_halves_and_replace_elsewhere() -> None:
+    plan = study_plan("table1", {"tasks": ["push_two_buttons", "sweep_to_dustpan"], "episodes": 30})
+    assert [(cfg.tasks, cfg.demos, cfg.out) for _, cfg in plan] == [
+        (["sweep_to_dustpan"], 30, "results/table1/complex_tasks"),
+        (["push_two_buttons"], 100, "results/table1/simpler_tasks")]
+    only_simple = study_plan("table1", {"tasks": ["lift_ball"]})
+    assert [cfg.out for _, cfg in only_simple] == ["results/table1/simpler_tasks"]
+    with pytest.raises(ValueError, match="no task pick_cube"):
+        study_plan("table1", {"tasks": ["pick_cube"]})  # a single-arm task: in no half
+    with pytest.raises(ValueError, match="lift_bal"):
+        study_plan("table1", {"tasks": ["lift_bal"]})
+    assert sum(len(cfg.tasks) for _, cfg in study_plan("table1", {"tasks": ["bimanual"]})) == 6
+    # a study whose runs share their tasks (few-shot: the same tasks at 5/15/30 demos) takes them as given
+    assert all(cfg.tasks == ["lift_ball"] for _, cfg in study_plan("few_shot", {"tasks": ["lift_ball"]}))
+
+
 def test_table1_halves_form_one_row_per_method_with_one_average_over_six_tasks() -> None:
     def run(tasks: list[str], demos: int, successes: list[int]) -> list[dict]:
         rows = [{"task": t, "method": "m", "demos": demos, "success": k / 10, "episodes": 10, "ci95": [0.0, 1.0]}

@@ -21,6 +21,7 @@ from bimanualshift.evaluation.plots import draw_plots
 from bimanualshift.evaluation.tables import bench_table, stage_table, targets_table
 from bimanualshift.evaluation.targets import study_targets
 from bimanualshift.sim.perturbations import PRESETS
+from bimanualshift.sim.task import resolve_task_names
 from bimanualshift.utils.io import atomic_write_text
 
 BASELINES = ["bimanualshift", "peract_lf", "dp_lf", "rvt_lf", "scratch_voxel", "scratch_dp", "scratch_act",
@@ -74,6 +75,7 @@ _STUDIES = [
         for prior in ("peract_suite_v2", "dp_suite_v2", "rvt_suite"))),
 ]
 STUDY_TABLE = {s.name: s for s in _STUDIES}
+TASK_GROUPS = ("all", "bimanual", "unimanual")
 STUDIES = tuple(STUDY_TABLE)
 
 
@@ -109,10 +111,30 @@ def combined_rows(runs: list[tuple[str, list[dict[str, Any]]]]) -> list[dict[str
 
 def study_plan(name: str, overrides: dict[str, Any] | None = None, root: str = "results"
                ) -> list[tuple[str, BenchConfig]]:
-    """The study's runs with the command line's overrides applied; a ``demos`` override relabels the runs."""
+    """The study's runs with the command line's overrides applied; a ``demos`` override relabels the runs.
+
+    Where the runs split the study's tasks between them (Table I's halves), ``tasks`` selects among them: each
+    run keeps the chosen tasks it holds, at its own demos and in its own folder, and a run left with none is
+    skipped. Otherwise ``tasks`` replaces every run's tasks."""
+    overrides = dict(overrides or {})
+    runs = study_runs(name, root)
+    chosen = overrides.pop("tasks", None)
+    planned_tasks = [t for _, cfg in runs for t in cfg.tasks]
+    partition = len(runs) > 1 and len(planned_tasks) == len(set(planned_tasks))
+    if chosen is not None and partition:
+        unknown = [t for t in chosen if t not in planned_tasks and t not in TASK_GROUPS]
+        chosen = resolve_task_names(chosen)
+        if unknown:
+            raise ValueError(f"study {name} has no task {', '.join(unknown)}; its tasks are "
+                             f"{', '.join(planned_tasks)}")
     plan = []
-    for label, planned in study_runs(name, root):
-        cfg = replace(planned, **(overrides or {}))
+    for label, planned in runs:
+        if chosen is not None:
+            tasks = [t for t in planned.tasks if t in chosen] if partition else list(chosen)
+            if not tasks:
+                continue
+            planned = replace(planned, tasks=tasks)
+        cfg = replace(planned, **overrides)
         plan.append((label.replace(f"{planned.demos} demos", f"{cfg.demos} demos"), cfg))
     return plan
 
