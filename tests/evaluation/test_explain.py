@@ -47,3 +47,19 @@ def test_explain_summarises_failures_per_method(tmp_path: Path) -> None:
     (tmp_path / "keyframes.jsonl").unlink()
     with pytest.raises(FileNotFoundError, match="re-run its bench command"):
         explain_rows(tmp_path, "t")
+
+
+def test_explain_counts_held_keyframes_per_arm_and_stage(tmp_path: Path) -> None:
+    def arms(left_held: bool, right_held: bool) -> dict:
+        return {"arms": [{"arm": "left", "held": left_held}, {"arm": "right", "held": right_held}]}
+
+    steps = [{**_step(0, [_row(0.5), _row(0.2)], [_row(0.5), _row(0.2)]), "policy": arms(False, True)},
+             {**_step(1, [_row(0.5), _row(0.2)], None, stages=1), "policy": arms(True, True)},
+             {**_step(2, [_row(0.5), _row(0.2)], None, stages=1), "policy": arms(True, False)}]
+    (tmp_path / "episodes.jsonl").write_text(json.dumps({"task": "t", "method": "m", "seed": 0, "success": False,
+                                                         "keyframes": 3, "stages_done": 1}) + "\n")
+    (tmp_path / "keyframes.jsonl").write_text(json.dumps({"task": "t", "method": "m", "seed": 0, "steps": steps}))
+    (row,) = explain_rows(tmp_path, "t")
+    assert row["held_arm_keyframes"] == 4
+    assert row["held_by_arm_and_stage"] == {"left": {0: [0, 1], 1: [2, 2]}, "right": {0: [1, 1], 1: [1, 2]}}
+    assert "right held, by stage reached: stage 0: 1/1, stage 1: 1/2" in explain_text([row], "t")

@@ -78,6 +78,15 @@ def explain_rows(folder: str | Path, task: str, methods: list[str] | None = None
         retrievals = [r for r in (_retrieval(logs[k]) for k in mine) if r is not None]
         held = sum(a.get("held", False) for k in mine for row in logs[k] for a in (row.get("policy") or {}).get(
             "arms", []))
+        # per arm and stage reached: [keyframes the arm was held, keyframes] (a waiting arm that never resumes
+        # shows as a high share in the later stages)
+        held_by_stage: dict[str, dict[int, list[int]]] = {}
+        for k in mine:
+            for row in logs[k]:
+                for a in (row.get("policy") or {}).get("arms", []):
+                    cell = held_by_stage.setdefault(a["arm"], {}).setdefault(int(row.get("stages_done", 0)), [0, 0])
+                    cell[0] += int(bool(a.get("held", False)))
+                    cell[1] += 1
         rows.append({
             "method": method, "episodes": len(mine), "failures": len(failed),
             "failed_at_stage": dict(sorted(Counter(episodes[k].get("stages_done", 0) for k in failed).items())),
@@ -87,6 +96,7 @@ def explain_rows(folder: str | Path, task: str, methods: list[str] | None = None
                           "keyframes": episodes[k]["keyframes"],
                           "first_divergence": None if d is None else vars(d)} for k, d in divergences.items()],
             "held_arm_keyframes": held,
+            "held_by_arm_and_stage": {arm: dict(sorted(v.items())) for arm, v in held_by_stage.items()},
             "retrieval_fired": (round(float(np.mean([r["fired"] for r in retrievals])), 3) if retrievals else None),
             "retrieval_similarity": (round(float(np.mean([r["similarity"] for r in retrievals
                                                           if r["similarity"] is not None])), 3)
@@ -107,6 +117,9 @@ def explain_text(rows: list[dict[str, Any]], task: str) -> str:
             lines += [f"    {n:3d} x {where}" for where, n in r["first_divergence"].items()]
         if r["held_arm_keyframes"]:
             lines.append(f"  keyframes with an arm held: {r['held_arm_keyframes']}")
+            for arm, stages in r["held_by_arm_and_stage"].items():
+                shares = ", ".join(f"stage {st}: {h}/{n}" for st, (h, n) in stages.items())
+                lines.append(f"    {arm} held, by stage reached: {shares}")
         if r["retrieval_fired"] is not None:
             lines.append(f"  retrieval fired in {100 * r['retrieval_fired']:.0f} % of episodes "
                          f"(mean nearest similarity {r['retrieval_similarity']})")
