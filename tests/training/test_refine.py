@@ -138,8 +138,8 @@ def test_scenes_rolled_out_in_two_workers_match_one(trained: Path, tmp_path: Pat
         with safe_open(str(one), framework="pt") as a, safe_open(str(two), framework="pt") as b:
             assert a.metadata() == b.metadata()
             assert set(a.keys()) == set(b.keys())
-            for key in a.keys():
-                assert torch.equal(a.get_tensor(key), b.get_tensor(key)), key
+            for key in a.keys():  # a worker's torch threads may sum in another order: equal up to rounding
+                torch.testing.assert_close(a.get_tensor(key), b.get_tensor(key), rtol=1e-4, atol=1e-5, msg=key)
 
 
 def test_an_action_space_residual_is_corrected_in_its_own_action_space(demo_root: Path, trained: Path,
