@@ -76,8 +76,6 @@ def explain_rows(folder: str | Path, task: str, methods: list[str] | None = None
         failed = [k for k in mine if not episodes[k]["success"]]
         divergences = {k: first_divergence(logs[k]) for k in failed}
         retrievals = [r for r in (_retrieval(logs[k]) for k in mine) if r is not None]
-        held = sum(a.get("held", False) for k in mine for row in logs[k] for a in (row.get("policy") or {}).get(
-            "arms", []))
         # per arm and stage reached: [keyframes the arm was held, keyframes] (a waiting arm that never resumes
         # shows as a high share in the later stages)
         held_by_stage: dict[str, dict[int, list[int]]] = {}
@@ -87,6 +85,7 @@ def explain_rows(folder: str | Path, task: str, methods: list[str] | None = None
                     cell = held_by_stage.setdefault(a["arm"], {}).setdefault(int(row.get("stages_done", 0)), [0, 0])
                     cell[0] += int(bool(a.get("held", False)))
                     cell[1] += 1
+        held = sum(h for stages in held_by_stage.values() for h, _ in stages.values())
         rows.append({
             "method": method, "episodes": len(mine), "failures": len(failed),
             "failed_at_stage": dict(sorted(Counter(episodes[k].get("stages_done", 0) for k in failed).items())),

@@ -21,7 +21,7 @@ from bimanualshift.evaluation.plots import draw_plots
 from bimanualshift.evaluation.tables import bench_table, stage_table, targets_table
 from bimanualshift.evaluation.targets import study_targets
 from bimanualshift.sim.perturbations import PRESETS
-from bimanualshift.sim.task import resolve_task_names
+from bimanualshift.sim.task import TASK_GROUPS, resolve_task_names
 from bimanualshift.utils.io import atomic_write_text
 
 BASELINES = ["bimanualshift", "peract_lf", "dp_lf", "rvt_lf", "scratch_voxel", "scratch_dp", "scratch_act",
@@ -75,7 +75,6 @@ _STUDIES = [
         for prior in ("peract_suite_v2", "dp_suite_v2", "rvt_suite"))),
 ]
 STUDY_TABLE = {s.name: s for s in _STUDIES}
-TASK_GROUPS = ("all", "bimanual", "unimanual")
 STUDIES = tuple(STUDY_TABLE)
 
 

@@ -276,10 +276,13 @@ def task_names(bimanual: bool | None = None) -> list[str]:
     return sorted(n for n, c in TASKS.items() if bimanual is None or c.bimanual == bimanual)
 
 
+TASK_GROUPS = ("all", "bimanual", "unimanual")  # names resolve_task_names expands to several tasks
+
+
 def resolve_task_names(requested: list[str]) -> list[str]:
     """Registered task names from names and the groups 'all', 'bimanual' and 'unimanual'."""
     known = task_names()
-    groups = {"all": known, "bimanual": task_names(bimanual=True), "unimanual": task_names(bimanual=False)}
+    groups = dict(zip(TASK_GROUPS, (known, task_names(bimanual=True), task_names(bimanual=False)), strict=True))
     tasks = list(dict.fromkeys(t for name in requested for t in groups.get(name, [name])))
     bad = [t for t in tasks if t not in known]
     if bad:
