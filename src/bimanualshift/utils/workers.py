@@ -14,6 +14,7 @@ import multiprocessing as mp
 import os
 import time
 from collections.abc import Callable, Iterable
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from typing import Any, TypeVar
 
 from tqdm import tqdm
@@ -56,13 +57,35 @@ def run_jobs(fn: Callable[[J], R], jobs: Iterable[J], workers: int = 1, desc: st
                 take(fn(job))
                 bar.update()
         else:
-            with mp.get_context("spawn").Pool(workers) as pool:
-                for result in pool.imap_unordered(fn, jobs, chunksize=chunksize):
-                    if deadline is not None and time.time() > deadline:
-                        break  # leaving the pool's context terminates the workers
-                    take(result)
-                    bar.update()
+            for result in _pool_results(fn, jobs, workers, chunksize, deadline):
+                take(result)
+                bar.update()
     return results
+
+
+# ---- local processes ---------------------------------------------------------------------------------------
+def _pool_results(fn: Callable[[J], R], jobs: list[J], workers: int, chunksize: int,
+                  deadline: float | None) -> Iterable[R]:
+    """Results of chunks of jobs run in ``spawn`` processes, in completion order. A worker that dies (killed,
+    out of memory, a crash in native code) fails the run with ``BrokenProcessPool`` instead of leaving it
+    waiting for a result that never comes, which is what ``multiprocessing.Pool`` does."""
+    chunks = [jobs[i:i + max(1, chunksize)] for i in range(0, len(jobs), max(1, chunksize))]
+    pool = ProcessPoolExecutor(min(workers, len(chunks)) or 1, mp_context=mp.get_context("spawn"))
+    try:
+        pending = {pool.submit(_run_chunk, fn, chunk) for chunk in chunks}
+        while pending:
+            timeout = None if deadline is None else max(0.0, deadline - time.time())
+            done, pending = wait(pending, timeout=timeout, return_when=FIRST_COMPLETED)
+            if not done:  # the deadline passed: queued chunks are dropped, running ones end with their episode
+                return
+            for future in done:
+                yield from future.result()
+    finally:
+        pool.shutdown(wait=deadline is None or time.time() <= deadline, cancel_futures=True)
+
+
+def _run_chunk(fn: Callable[[J], R], chunk: list[J]) -> list[R]:
+    return [fn(job) for job in chunk]
 
 
 # ---- Ray ---------------------------------------------------------------------------------------------------
