@@ -36,6 +36,9 @@ class MethodSpec:
     # the method whose training run this one shares (its folder in a benchmark's runs): the full method before
     # refinement is the full method's own trained residual, not a second, identical training
     trains_as: str = ""
+    # what the method is in a study: the method itself (and its variants), an ablation of it, a baseline that
+    # starts from a pretrained prior, or a baseline trained from scratch on the bimanual demos only
+    role: str = "method"
 
     @property
     def run_name(self) -> str:
@@ -44,11 +47,15 @@ class MethodSpec:
 
 
 METHODS: dict[str, MethodSpec] = {}
+# "reference": a method a study shows for orientation that is neither an ablation nor a baseline (the frozen prior)
+ROLES = ("method", "ablation", "baseline", "from_scratch", "reference")
 
 
 def register_method(spec: MethodSpec) -> MethodSpec:
     if spec.name in METHODS:
         raise ValueError(f"method {spec.name!r} is already registered")
+    if spec.role not in ROLES:
+        raise ValueError(f"method {spec.name!r}: role {spec.role!r} is not one of {', '.join(ROLES)}")
     METHODS[spec.name] = spec
     return spec
 
@@ -57,6 +64,11 @@ def get_method(name: str) -> MethodSpec:
     if name not in METHODS:
         raise ValueError(f"unknown method {name!r}; choose from {sorted(METHODS)}")
     return METHODS[name]
+
+
+def methods_with_role(*roles: str) -> list[str]:
+    """The registered methods in any of ``roles``, in registration order (a plugin's own baselines included)."""
+    return [name for name, spec in METHODS.items() if spec.role in roles]
 
 
 # Refinement inside the benchmark (Eq. 10-11, 13): rollouts on this many training scenes after the demos' own
@@ -72,8 +84,8 @@ def _finished(run: Path) -> Path | None:
     return best if (run / "summary.json").is_file() and (best / "config.json").is_file() else None
 
 
-def _residual_method(name: str, description: str, refine: bool = True, trains_as: str = "", **switches: Any
-                     ) -> MethodSpec:
+def _residual_method(name: str, description: str, refine: bool = True, trains_as: str = "", role: str = "method",
+                     **switches: Any) -> MethodSpec:
     """BimanualShift trained with ``switches`` (TrainConfig fields) on top of the request, then (``refine``)
     refined on training scenes: the method as the paper runs it."""
 
@@ -104,10 +116,10 @@ def _residual_method(name: str, description: str, refine: bool = True, trains_as
         return policy
 
     return MethodSpec(name, description, train, load, continual=True, steps=RESIDUAL_STEPS, refine=refine,
-                      trains_as=trains_as)
+                      trains_as=trains_as, role=role)
 
 
-def _frozen_prior_method(name: str, description: str, use_projection: bool) -> MethodSpec:
+def _frozen_prior_method(name: str, description: str, use_projection: bool, role: str) -> MethodSpec:
     def load(checkpoint: Path | None, request: TrainRequest) -> Policy:
         from bimanualshift.encoders.text import default_text_encoder
         from bimanualshift.methods.frozen_prior import FrozenPriorPerArm
@@ -115,7 +127,7 @@ def _frozen_prior_method(name: str, description: str, use_projection: bool) -> M
         return FrozenPriorPerArm.from_pretrained(request.prior, default_text_encoder(), name=name,
                                                  use_projection=use_projection)
 
-    return MethodSpec(name, description, lambda request: None, load)
+    return MethodSpec(name, description, lambda request: None, load, role=role)
 
 
 register_method(_residual_method(
@@ -123,25 +135,28 @@ register_method(_residual_method(
     "method)", retrieval=True))
 register_method(_residual_method(
     "no_refinement", "ablation: the full method before refinement (L_BC only; the full method's run before its "
-    "refinement stage)", refine=False, trains_as="bimanualshift", retrieval=True))
+    "refinement stage)", refine=False, trains_as="bimanualshift", retrieval=True, role="ablation"))
 register_method(_residual_method(
     "paper_literal", "ablation: the residual moves translation and rotation only (Eq. 4 as written: no gripper "
-    "residual, no hold)", retrieval=True, paper_literal=True))
+    "residual, no hold)", retrieval=True, paper_literal=True, role="ablation"))
 register_method(_residual_method(
     "action_space", "variant: the residual adds logits to the frozen prior's own heat-map (a lattice around its "
     "proposal) and rotation bins instead of moving its action (compare with no_refinement on validation seeds)",
     refine=False, retrieval=True, action_space=True))
 register_method(_residual_method(
-    "no_projection", "ablation: the prior sees the global scene", retrieval=True, use_projection=False))
+    "no_projection", "ablation: the prior sees the global scene", retrieval=True, use_projection=False,
+    role="ablation"))
 register_method(_frozen_prior_method(
-    "no_residual", "ablation: the frozen prior per arm through the projection, no residual", use_projection=True))
+    "no_residual", "ablation: the frozen prior per arm through the projection, no residual", use_projection=True,
+    role="ablation"))
 register_method(_residual_method(
-    "no_retrieval", "ablation: no memory bank reference", retrieval=False))
+    "no_retrieval", "ablation: no memory bank reference", retrieval=False, role="ablation"))
 register_method(_residual_method(
-    "unstructured", "ablation: an MLP residual with no skill basis", retrieval=True, structured=False))
+    "unstructured", "ablation: an MLP residual with no skill basis", retrieval=True, structured=False,
+    role="ablation"))
 register_method(_frozen_prior_method(
     "frozen_prior_per_arm", "baseline: the frozen prior drives each arm on the global scene, nothing trained",
-    use_projection=False))
+    use_projection=False, role="reference"))
 
 
 
@@ -162,7 +177,7 @@ def method_config(default: Any, overrides: dict[str, Any], method: str) -> Any:
 
 
 def _backbone_method(name: str, description: str, trainer: str, policy: str, config: Any,
-                     continual: bool = False) -> MethodSpec:
+                     continual: bool = False, role: str = "baseline") -> MethodSpec:
     """A baseline that trains or fine-tunes a voxel backbone: ``trainer`` names a function of
     ``bimanualshift.training.baseline_trainers``, ``policy`` a class as "module:Class" under
     ``bimanualshift.methods.baselines``, ``config`` its default typed training config."""
@@ -188,16 +203,18 @@ def _backbone_method(name: str, description: str, trainer: str, policy: str, con
         return getattr(importlib.import_module(f"bimanualshift.methods.baselines.{module}"), cls)(
             checkpoint, default_text_encoder())
 
-    return MethodSpec(name, description, train, load, continual, config=config)
+    return MethodSpec(name, description, train, load, continual, config=config, role=role)
 
 
 _BACKBONE = BackboneTrainConfig()
 register_method(_backbone_method(
     "scratch_voxel", "baseline: a PerAct2-style voxel policy for both arms trained from scratch on the bimanual demos "
-    "(global scene, no prior, no residual)", "train_scratch_voxel", "from_scratch:ScratchVoxelPolicy", _BACKBONE))
+    "(global scene, no prior, no residual)", "train_scratch_voxel", "from_scratch:ScratchVoxelPolicy", _BACKBONE,
+    role="from_scratch"))
 register_method(_backbone_method(
     "voxactb", "baseline: VoxAct-B-style, a voxel policy from scratch on a region of interest found from the goal "
     "masks (instead of a VLM), one network for the acting and the stabilising arm", "train_voxactb",
+    # it trains from scratch too, but the targets' from-scratch group is the single-network PerAct2 / DP / ACT trio
     "voxactb:VoxActBPolicy", _BACKBONE))
 register_method(_backbone_method(
     "peract_lf", "baseline: PerAct-LF, leader (right) and follower (left) networks fine-tuned from the single-arm "
@@ -222,9 +239,11 @@ register_method(_backbone_method(
     "scratch_dp", "baseline: a Diffusion Policy for both arms (point cloud of the global scene, the other arm's pose "
     "and the acting arm's one-hot as extra proprioception) trained from scratch on the bimanual demos only",
     # AdamW as the shipped Diffusion Policy prior was pretrained with
-    "train_scratch_dp", "from_scratch:ScratchDiffusionPolicy", replace(_BACKBONE, lr=3e-4, optimizer="adamw")))
+    "train_scratch_dp", "from_scratch:ScratchDiffusionPolicy", replace(_BACKBONE, lr=3e-4, optimizer="adamw"),
+    role="from_scratch"))
 register_method(_backbone_method(
     "scratch_act", "baseline: ACT (a CVAE transformer predicting action chunks; point cloud of the global scene, the "
     "other arm's pose and the acting arm's one-hot as extra proprioception) trained from scratch on the bimanual demos",
     # AdamW at ACT's learning rate
-    "train_scratch_act", "from_scratch:ScratchACTPolicy", replace(_BACKBONE, lr=1e-4, optimizer="adamw")))
+    "train_scratch_act", "from_scratch:ScratchACTPolicy", replace(_BACKBONE, lr=1e-4, optimizer="adamw"),
+    role="from_scratch"))

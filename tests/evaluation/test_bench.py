@@ -210,14 +210,34 @@ def test_an_unknown_executor_is_refused_before_any_training(tmp_path: Path) -> N
 
 def test_every_method_of_the_paper_table_gets_its_own_colour() -> None:
     from bimanualshift.evaluation.plots import label_colours
-    from bimanualshift.evaluation.studies import ABLATIONS, BASELINES
+    from bimanualshift.evaluation.studies import TABLE1_METHODS
 
-    methods = list(dict.fromkeys(BASELINES + ABLATIONS + ["frozen_prior_per_arm"]))
+    methods = [*TABLE1_METHODS, "frozen_prior_per_arm"]
     assert len(methods) >= 13
     rows = [{"task": "lift_ball", "method": m} for m in methods]
     colours = label_colours(rows)
     assert len(set(colours.values())) == len(methods)  # (11 methods once shared a 10-colour cycle)
     assert colours["bimanualshift"] == label_colours(rows[::-1])["bimanualshift"]  # stable, whatever the row order
+
+
+def test_table1_runs_the_full_method_every_baseline_and_every_ablation() -> None:
+    from bimanualshift.evaluation.studies import TABLE1_METHODS
+    from bimanualshift.registry import methods_with_role
+
+    assert set(methods_with_role("ablation")) == {"no_projection", "no_residual", "no_retrieval", "no_refinement",
+                                                  "unstructured", "paper_literal"}
+    assert set(methods_with_role("from_scratch")) == {"scratch_voxel", "scratch_dp", "scratch_act"}
+    assert set(methods_with_role("baseline")) == {"peract_lf", "rvt_lf", "dp_lf", "anybimanual", "voxactb"}
+    assert TABLE1_METHODS[0] == "bimanualshift" and len(TABLE1_METHODS) == len(set(TABLE1_METHODS)) == 15
+    assert "action_space" not in TABLE1_METHODS and "frozen_prior_per_arm" not in TABLE1_METHODS
+
+
+def test_a_method_with_an_unknown_role_is_refused() -> None:
+    from bimanualshift.registry import register_method
+
+    with pytest.raises(ValueError, match="role 'basline' is not one of method, ablation"):
+        register_method(replace(METHODS["peract_lf"], name="peract_lf_typo", role="basline"))
+    assert "peract_lf_typo" not in METHODS
 
 
 def test_refined_methods_are_the_full_method_and_its_ablations_but_no_refinement() -> None:

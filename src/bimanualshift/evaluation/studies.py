@@ -20,13 +20,13 @@ from bimanualshift.evaluation.bench import BenchConfig, average_row, run_bench
 from bimanualshift.evaluation.plots import draw_plots
 from bimanualshift.evaluation.tables import bench_table, stage_table, targets_table
 from bimanualshift.evaluation.targets import study_targets
+from bimanualshift.registry import methods_with_role
 from bimanualshift.sim.perturbations import PRESETS
 from bimanualshift.sim.task import TASK_GROUPS, resolve_task_names
 from bimanualshift.utils.io import atomic_write_text
 
-BASELINES = ["bimanualshift", "peract_lf", "dp_lf", "rvt_lf", "scratch_voxel", "scratch_dp", "scratch_act",
-             "anybimanual", "voxactb"]
-ABLATIONS = ["no_projection", "no_residual", "no_retrieval", "no_refinement", "unstructured", "paper_literal"]
+# Table I's rows: the full method, every baseline and every ablation (the registry says which is which)
+TABLE1_METHODS = ["bimanualshift", *methods_with_role("baseline", "from_scratch", "ablation")]
 FEW_SHOT_TASKS = ["push_two_buttons", "lift_ball", "pick_up_plate"]
 TABLE1_TASKS = ("take_tray_out_of_oven", "straighten_rope", "sweep_to_dustpan", "lift_ball", "push_two_buttons",
                 "pick_up_plate")  # the paper's six RLBench2 tasks (the composite task is the long-horizon study's)
@@ -49,9 +49,9 @@ LONG_HORIZON_RUNS = "runs/long_horizon"
 _STUDIES = [
     Study("table1", "Table I: the complex tasks at 30 demos, the simpler ones at 100; one row per method (folders "
           "are named by their tasks, not their demos: `--demos` overrides both halves)", (
-              (TABLE1, BenchConfig(tasks=list(TABLE1_TASKS[:3]), demos=30, methods=BASELINES + ABLATIONS,
+              (TABLE1, BenchConfig(tasks=list(TABLE1_TASKS[:3]), demos=30, methods=TABLE1_METHODS,
                                    out="table1/complex_tasks", runs="runs/table1")),
-              (TABLE1, BenchConfig(tasks=list(TABLE1_TASKS[3:]), demos=100, methods=BASELINES + ABLATIONS,
+              (TABLE1, BenchConfig(tasks=list(TABLE1_TASKS[3:]), demos=100, methods=TABLE1_METHODS,
                                    out="table1/simpler_tasks", runs="runs/table1")))),
     Study("few_shot", "Fig. 11a: 5 / 15 / 30 demos", tuple(
         (f"{n} demos", BenchConfig(tasks=FEW_SHOT_TASKS, demos=n, methods=["bimanualshift", "peract_lf"],

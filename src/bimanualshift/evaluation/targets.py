@@ -8,10 +8,9 @@ from __future__ import annotations
 
 from typing import Any
 
+from bimanualshift.registry import methods_with_role
+
 FULL = "bimanualshift"
-FROM_SCRATCH = ("scratch_voxel", "scratch_dp", "scratch_act")
-ABLATIONS = ("no_projection", "no_residual", "no_retrieval", "no_refinement", "unstructured", "paper_literal")
-BASELINES = ("peract_lf", "rvt_lf", "dp_lf", "anybimanual", "voxactb", "scratch_voxel", "scratch_act", "scratch_dp")
 LONG_TASKS = ("take_tray_out_of_oven", "straighten_rope", "sweep_to_dustpan")
 
 
@@ -40,8 +39,9 @@ def table1_targets(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
     if full is None:
         return [_target("every Table I target", f"{FULL} was not in this run", None)]
     out = [_target("BimanualShift average ≥ 60 %", _pct(full), full >= 0.6)]
-    ran = {m: avg[m] for m in BASELINES if m in avg}
-    missing = [m for m in BASELINES if m not in ran]
+    baselines = methods_with_role("baseline", "from_scratch")
+    ran = {m: avg[m] for m in baselines if m in avg}
+    missing = [m for m in baselines if m not in ran]
     if ran:
         best = max(ran, key=ran.get)  # type: ignore[arg-type]
         note = f"; {', '.join(missing)} not in this run" if missing else ""
@@ -50,11 +50,12 @@ def table1_targets(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
     else:
         out.append(_target("≥ the best baseline", "no baseline in this run", None))
     out += _long_task_targets(rows)
-    scratch = {m: avg[m] for m in FROM_SCRATCH if m in avg}
+    from_scratch = methods_with_role("from_scratch")
+    scratch = {m: avg[m] for m in from_scratch if m in avg}
     if scratch:
         best = max(scratch, key=scratch.get)  # type: ignore[arg-type]
         gap = full - scratch[best]
-        missing = [m for m in FROM_SCRATCH if m not in scratch]
+        missing = [m for m in from_scratch if m not in scratch]
         note = f"; {', '.join(missing)} not in this run" if missing else ""
         out.append(_target("≥ 20 points above the best from-scratch baseline",
                            f"{100 * gap:+.0f} points vs {best} ({_pct(scratch[best])}){note}", gap >= 0.2))
@@ -67,7 +68,7 @@ def table1_targets(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
         out.append(_target("≥ 10 points above AnyBimanual-style", measured, gap >= 0.1))
     else:
         out.append(_target("≥ 10 points above AnyBimanual-style", "anybimanual not in this run", None))
-    for ablation in ABLATIONS:
+    for ablation in methods_with_role("ablation"):
         if ablation in avg:
             out.append(_target(f"{ablation} below the full method", f"{_pct(avg[ablation])} vs {_pct(full)}",
                                avg[ablation] < full))
