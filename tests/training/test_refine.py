@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -140,6 +141,22 @@ def test_scenes_rolled_out_in_two_workers_match_one(trained: Path, tmp_path: Pat
             assert set(a.keys()) == set(b.keys())
             for key in a.keys():  # a worker's torch threads may sum in another order: equal up to rounding
                 torch.testing.assert_close(a.get_tensor(key), b.get_tensor(key), rtol=1e-4, atol=1e-5, msg=key)
+
+
+def test_a_policy_with_parts_the_checkpoint_does_not_name_rolls_out_in_this_process(
+        trained: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    import bimanualshift.training.refine as refine_module
+
+    def no_workers(*args: object, **kwargs: object) -> None:
+        raise AssertionError("rolled out in workers, which rebuild the checkpoint's own text encoder")
+
+    monkeypatch.setattr(refine_module, "run_jobs", no_workers)
+    policy = load_bimanualshift(trained, default_text_encoder())
+    cfg = RefineConfig(checkpoint=str(trained), out=str(tmp_path), episodes=2, start=5, max_keyframes=1, workers=2)
+    paths = collect_refinement(cfg, policy, "push_two_buttons", in_process=True)
+    assert all(p.is_file() for p in paths)
+    with pytest.raises(AssertionError, match="rolled out in workers"):  # the same scenes, not done yet, go to workers
+        collect_refinement(replace(cfg, out=str(tmp_path / "again")), policy, "push_two_buttons")
 
 
 def test_an_action_space_residual_is_corrected_in_its_own_action_space(demo_root: Path, trained: Path,

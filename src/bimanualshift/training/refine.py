@@ -180,16 +180,18 @@ def refine_scene_job(job: tuple[dict[str, Any], str, int, str]) -> int:
     return seed
 
 
-def collect_refinement(cfg: RefineConfig, policy: BimanualShift, task: str) -> list[Path]:
+def collect_refinement(cfg: RefineConfig, policy: BimanualShift, task: str, in_process: bool = False) -> list[Path]:
     """Roll out and correct every scene not yet done; one safetensors file per scene under ``out/scenes``.
     Scenes are independent (the policy and its memory stay fixed until all are done), so ``cfg.workers``
-    processes roll them out in parallel with the same result as one."""
+    processes roll them out in parallel with the same result as one. Workers rebuild the policy from the
+    checkpoint; ``in_process`` keeps the rollouts on ``policy`` itself (one holding parts the checkpoint
+    does not name, such as a caller's own text encoder)."""
     scenes = Path(cfg.out) / "scenes"
     scenes.mkdir(parents=True, exist_ok=True)
     seeds = split_seeds("train", cfg.episodes, cfg.start)
     paths = [scenes / f"seed_{seed:06d}.safetensors" for seed in seeds]
     todo = [(seed, path) for seed, path in zip(seeds, paths) if not path.is_file()]
-    if cfg.workers > 1 and len(todo) > 1:
+    if cfg.workers > 1 and len(todo) > 1 and not in_process:
         jobs = [(asdict(cfg), task, seed, str(path)) for seed, path in todo]
         run_jobs(refine_scene_job, jobs, workers=min(cfg.workers, len(todo)), desc="refinement rollouts",
                  chunksize=1)
@@ -240,7 +242,9 @@ def refine(cfg: RefineConfig, text_encoder: TextEncoder | None = None) -> Path:
     task = meta["task"]
 
     # 1-3: rollouts on training scenes, corrections, successes into the (unfrozen) bank.
-    records, corrections, successes = load_scenes(collect_refinement(cfg, policy, task))
+    # a caller's own text encoder exists only in this process: workers would rebuild the checkpoint's
+    records, corrections, successes = load_scenes(collect_refinement(cfg, policy, task,
+                                                                     in_process=text_encoder is not None))
     memory = MemoryBank.load(checkpoint / MEMORY_FILE) if policy.memory is not None else None
     if memory is not None:
         for record, key, trajectory in successes:
