@@ -63,3 +63,34 @@ def test_explain_counts_held_keyframes_per_arm_and_stage(tmp_path: Path) -> None
     assert row["held_arm_keyframes"] == 4
     assert row["held_by_arm_and_stage"] == {"left": {0: [0, 1], 1: [2, 2]}, "right": {0: [1, 1], 1: [1, 2]}}
     assert "right held, by stage reached: stage 0: 1/1, stage 1: 1/2" in explain_text([row], "t")
+
+
+def test_the_lead_arm_is_the_one_the_expert_moves_first_and_a_role_swap_shows() -> None:
+    from bimanualshift.evaluation.explain import lead_arms
+
+    # the expert moves the right arm 10 cm a keyframe while the left waits; the policy moves the left instead
+    expert = [[_row(0.5), _row(0.1 * k)] for k in range(4)]
+    swapped = [_step(k, [_row(0.5 + 0.1 * k), _row(0.0)], expert[k]) for k in range(4)]
+    followed = [_step(k, [_row(0.5), _row(0.1 * k + 0.01)], expert[k]) for k in range(4)]
+    assert lead_arms(swapped) == ("right", "left")
+    assert lead_arms(followed) == ("right", "right")
+    # both arms reaching together: no leader, nothing to count
+    together = [_step(k, [_row(0.5), _row(0.0)], [_row(0.1 * k), _row(0.1 * k)]) for k in range(4)]
+    assert lead_arms(together) is None
+    assert lead_arms(swapped[:1]) is None  # one keyframe: no motion to compare
+
+
+def test_explain_counts_episodes_led_by_the_expert_s_lead_arm(tmp_path: Path) -> None:
+    expert = [[_row(0.5), _row(0.1 * k)] for k in range(4)]
+    swapped = [_step(k, [_row(0.5 + 0.1 * k), _row(0.0)], expert[k]) for k in range(4)]
+    followed = [_step(k, [_row(0.5), _row(0.1 * k)], expert[k]) for k in range(4)]
+    (tmp_path / "episodes.jsonl").write_text("".join(
+        json.dumps({"task": "t", "method": "m", "seed": s, "success": False, "keyframes": 4}) + "\n"
+        for s in range(3)))
+    (tmp_path / "keyframes.jsonl").write_text("".join(
+        json.dumps({"task": "t", "method": "m", "seed": s, "steps": steps}) + "\n"
+        for s, steps in enumerate((swapped, followed, followed))))
+    (row,) = explain_rows(tmp_path, "t")
+    assert row["same_lead_arm"] == {"right": [2, 3]}
+    assert "moved first the arm the expert leads with: 2/3 episodes (by the expert's lead arm: right 2/3)" in \
+        explain_text([row], "t")

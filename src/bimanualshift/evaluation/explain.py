@@ -3,7 +3,8 @@
 Every evaluated episode's keyframes are logged with the scripted expert's action at the same index on the same
 seed (``rollout.keyframe_row``). A failed episode is summarised by the stage it reached and its first divergence:
 the first keyframe at which an arm's executed action strays from the expert's (the refinement's tolerances:
-3 cm, 20 degrees, or the other gripper state), and which arm it was.
+3 cm, 20 degrees, or the other gripper state), and which arm it was. Where the expert leads with one arm, an
+episode also says whether the policy moved that arm first (a role swap otherwise).
 """
 
 from __future__ import annotations
@@ -20,6 +21,9 @@ from bimanualshift.evaluation.bench import KEYFRAME_LOG
 from bimanualshift.utils.jsonl import read_records
 
 TOLERANCE_M, TOLERANCE_DEG = 0.03, 20.0
+# Which arm leads: the one the expert's plan moves farther over its first keyframes, when it moves at least
+# LEAD_RATIO times as far as the other (symmetric plans, both arms reaching together, have no leader).
+LEAD_KEYFRAMES, LEAD_RATIO = 6, 2.0
 
 
 @dataclass(frozen=True)
@@ -44,6 +48,23 @@ def first_divergence(steps: list[dict[str, Any]], arms: tuple[str, ...] = ARM_NA
                     ("gripper", (mine[7] > 0.5) != (theirs[7] > 0.5))) if off] or ["rotation"]
                 return Divergence(row["keyframe"], arms[i] if i < len(arms) else str(i), " + ".join(what))
     return None
+
+
+def lead_arms(steps: list[dict[str, Any]], arms: tuple[str, ...] = ARM_NAMES_BIMANUAL
+              ) -> tuple[str, str] | None:
+    """(the arm the expert's plan leads with, the arm the policy moved farther) over the first keyframes both
+    have, or None when the plan has no leading arm: a role swap (the policy moving the arm that should wait)
+    shows as a mismatch."""
+    rows = [r for r in steps[:LEAD_KEYFRAMES] if r["expert"] is not None]
+    if len(rows) < 2:
+        return None
+    expert = np.asarray([r["expert"] for r in rows])[:, :, :3]
+    executed = np.asarray([r["executed"] for r in rows])[:, :, :3]
+    plan = np.linalg.norm(np.diff(expert, axis=0), axis=-1).sum(0)
+    if len(plan) != 2 or plan.max() < LEAD_RATIO * plan.min() or plan.max() < TOLERANCE_M:
+        return None
+    moved = np.linalg.norm(np.diff(executed, axis=0), axis=-1).sum(0)
+    return arms[int(np.argmax(plan))], arms[int(np.argmax(moved))]
 
 
 def _retrieval(steps: list[dict[str, Any]]) -> dict[str, Any] | None:
@@ -86,6 +107,14 @@ def explain_rows(folder: str | Path, task: str, methods: list[str] | None = None
                     cell[0] += int(bool(a.get("held", False)))
                     cell[1] += 1
         held = sum(h for stages in held_by_stage.values() for h, _ in stages.values())
+        # per arm the expert leads with: [episodes the policy led with the same arm, episodes]
+        leads: dict[str, list[int]] = {}
+        for k in mine:
+            pair = lead_arms(logs[k])
+            if pair is not None:
+                cell = leads.setdefault(pair[0], [0, 0])
+                cell[0] += int(pair[0] == pair[1])
+                cell[1] += 1
         rows.append({
             "method": method, "episodes": len(mine), "failures": len(failed),
             "failed_at_stage": dict(sorted(Counter(episodes[k].get("stages_done", 0) for k in failed).items())),
@@ -96,6 +125,7 @@ def explain_rows(folder: str | Path, task: str, methods: list[str] | None = None
                           "first_divergence": None if d is None else vars(d)} for k, d in divergences.items()],
             "held_arm_keyframes": held,
             "held_by_arm_and_stage": {arm: dict(sorted(v.items())) for arm, v in held_by_stage.items()},
+            "same_lead_arm": dict(sorted(leads.items())),
             "retrieval_fired": (round(float(np.mean([r["fired"] for r in retrievals])), 3) if retrievals else None),
             "retrieval_similarity": (round(float(np.mean([r["similarity"] for r in retrievals
                                                           if r["similarity"] is not None])), 3)
@@ -119,6 +149,12 @@ def explain_text(rows: list[dict[str, Any]], task: str) -> str:
             for arm, stages in r["held_by_arm_and_stage"].items():
                 shares = ", ".join(f"stage {st}: {h}/{n}" for st, (h, n) in stages.items())
                 lines.append(f"    {arm} held, by stage reached: {shares}")
+        if r.get("same_lead_arm"):
+            agree = sum(a for a, _ in r["same_lead_arm"].values())
+            total = sum(n for _, n in r["same_lead_arm"].values())
+            by_arm = ", ".join(f"{arm} {a}/{n}" for arm, (a, n) in r["same_lead_arm"].items())
+            lines.append(f"  moved first the arm the expert leads with: {agree}/{total} episodes "
+                         f"(by the expert's lead arm: {by_arm})")
         if r["retrieval_fired"] is not None:
             lines.append(f"  retrieval fired in {100 * r['retrieval_fired']:.0f} % of episodes "
                          f"(mean nearest similarity {r['retrieval_similarity']})")
