@@ -94,3 +94,20 @@ def test_explain_counts_episodes_led_by_the_expert_s_lead_arm(tmp_path: Path) ->
     assert row["same_lead_arm"] == {"right": [2, 3]}
     assert "moved first the arm the expert leads with: 2/3 episodes (by the expert's lead arm: right 2/3)" in \
         explain_text([row], "t")
+
+
+def test_explain_command_takes_methods_as_bench_does_and_names_an_unknown_one(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from bimanualshift.cli import main
+
+    steps = [_step(0, [_row(0.5), _row(0.2)], [_row(0.9), _row(0.2)])]
+    (tmp_path / "episodes.jsonl").write_text("".join(
+        json.dumps({"task": "t", "method": m, "seed": 0, "success": False, "keyframes": 1}) + "\n" for m in "ab"))
+    (tmp_path / "keyframes.jsonl").write_text("".join(
+        json.dumps({"task": "t", "method": m, "seed": 0, "steps": steps}) + "\n" for m in "ab"))
+    for flag in ("--methods", "--method"):
+        main(["explain", str(tmp_path), "--task", "t", flag, "b"])
+        out = capsys.readouterr().out
+        assert "## b: 1 of 1 episodes failed" in out and "## a:" not in out
+    with pytest.raises(ValueError, match="no logged episodes of c on 't'.*logged methods: a, b"):
+        explain_rows(tmp_path, "t", ["b", "c"])

@@ -201,14 +201,15 @@ class ExplainArgs:
     # a bench or study results folder (its episodes.jsonl and keyframes.jsonl)
     folder: Annotated[str, tyro.conf.Positional, tyro.conf.arg(metavar="FOLDER")]
     task: str  # the bimanual task whose failures to explain
-    method: list[str] = field(default_factory=list)  # only these methods (default: every one in the folder)
+    # only these methods (default: every one in the folder); --methods as in bench and study
+    methods: Annotated[list[str], tyro.conf.arg(aliases=("--method",))] = field(default_factory=list)
     out: str = ""  # also write the rows as a JSON result file here
 
 
 def explain(args: ExplainArgs) -> None:
     from bimanualshift.evaluation.explain import explain_rows, explain_text
 
-    rows = explain_rows(args.folder, args.task, args.method or None)
+    rows = explain_rows(args.folder, args.task, args.methods or None)
     print(explain_text(rows, args.task))
     if args.out:
         from bimanualshift.utils.io import atomic_write_json

@@ -87,10 +87,17 @@ def explain_rows(folder: str | Path, task: str, methods: list[str] | None = None
     episodes = {(e["task"], e["method"], e.get("perturbation", "none"), e["seed"]): e
                 for e in read_records(folder / "episodes.jsonl")}
     logs = {(r["task"], r["method"], r.get("perturbation", "none"), r["seed"]): r["steps"] for r in read_records(log)}
-    keys = [k for k in episodes if k[0] == task and k in logs and (not methods or k[1] in methods)]
+    keys = [k for k in episodes if k[0] == task and k in logs]
     if not keys:
         known = sorted({k[0] for k in logs})
         raise ValueError(f"no logged episodes of {task!r} in {folder}; logged tasks: {known}")
+    if methods:
+        logged = list(dict.fromkeys(k[1] for k in keys))
+        unknown = [m for m in methods if m not in logged]
+        if unknown:
+            raise ValueError(f"no logged episodes of {', '.join(unknown)} on {task!r} in {folder}; logged methods: "
+                             f"{', '.join(logged)}")
+        keys = [k for k in keys if k[1] in methods]
     rows = []
     for method in dict.fromkeys(k[1] for k in keys):
         mine = [k for k in keys if k[1] == method]
