@@ -29,6 +29,14 @@ def test_first_divergence_names_the_keyframe_the_arm_and_what_strayed() -> None:
     assert first_divergence([_step(5, [_row(0.5)] * 2, None)]) == Divergence(5, "-", "past the expert's plan")
 
 
+def test_a_gripper_turned_half_way_round_follows_the_expert() -> None:
+    turned = [0.5, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 1.0, 0.0]  # a half turn about the gripper's own z
+    quarter = [0.5, 0.0, 1.0, 0.0, 0.0, np.sqrt(0.5), np.sqrt(0.5), 1.0, 0.0]
+    assert first_divergence([_step(0, [turned, _row(0.2)], [_row(0.5), _row(0.2)])]) is None
+    assert first_divergence([_step(0, [quarter, _row(0.2)], [_row(0.5), _row(0.2)])]) == Divergence(0, "left",
+                                                                                                 "rotation")
+
+
 def test_explain_summarises_failures_per_method(tmp_path: Path) -> None:
     episodes = [{"task": "t", "method": "m", "seed": s, "success": s == 0, "keyframes": 3, "stages_done": s % 2}
                 for s in range(3)]

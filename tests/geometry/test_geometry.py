@@ -7,6 +7,7 @@ from bimanualshift.geometry.frames import (
     ArmFrame,
     compose_rotation,
     euler_bins_to_quat,
+    gripper_angle_deg,
     quat_to_euler_bins,
     rotation_difference,
 )
@@ -99,3 +100,11 @@ def test_slerp_and_rotation_angle_match_scipy() -> None:
         assert abs(rotation_angle(a.as_quat(), b.as_quat()) - (b * a.inv()).magnitude()) < 1e-7
     q = Rotation.random(random_state=rng).as_quat()
     assert rotation_angle(q, -q) < 1e-7  # q and -q are the same rotation
+
+
+def test_a_half_turn_about_the_approach_axis_is_the_same_grasp() -> None:
+    down = Rotation.from_quat([np.sqrt(0.5), np.sqrt(0.5), 0.0, 0.0])  # pointing down: its z is the world's -z
+    turned = (Rotation.from_euler("z", np.radians(170)) * down).as_quat()  # a world-vertical turn of 170 degrees
+    assert np.isclose(gripper_angle_deg(down.as_quat(), turned), 10.0, atol=1e-6)
+    tilted = (Rotation.from_euler("x", np.radians(30)) * down).as_quat()  # a tilt is not forgiven
+    assert np.isclose(gripper_angle_deg(down.as_quat(), tilted), 30.0, atol=1e-6)

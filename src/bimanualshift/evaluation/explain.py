@@ -3,7 +3,8 @@
 Every evaluated episode's keyframes are logged with the scripted expert's action at the same index on the same
 seed (``rollout.keyframe_row``). A failed episode is summarised by the stage it reached and its first divergence:
 the first keyframe at which an arm's executed action strays from the expert's (the refinement's tolerances:
-3 cm, 20 degrees, or the other gripper state), and which arm it was. Where the expert leads with one arm, an
+3 cm, 20 degrees, or the other gripper state; unlike refinement's check, a gripper turned a half turn about its
+approach axis counts as the same grasp), and which arm it was. Where the expert leads with one arm, an
 episode also says whether the policy moved that arm first (a role swap otherwise).
 """
 
@@ -18,6 +19,7 @@ import numpy as np
 
 from bimanualshift.core.arms import ARM_NAMES_BIMANUAL
 from bimanualshift.evaluation.bench import KEYFRAME_LOG
+from bimanualshift.geometry.frames import gripper_angle_deg
 from bimanualshift.utils.jsonl import read_records
 
 TOLERANCE_M, TOLERANCE_DEG = 0.03, 20.0
@@ -34,18 +36,18 @@ class Divergence:
 
 
 def first_divergence(steps: list[dict[str, Any]], arms: tuple[str, ...] = ARM_NAMES_BIMANUAL) -> Divergence | None:
-    """The first keyframe at which an arm's executed action strays from the expert's at the same index."""
-    from bimanualshift.training.refine import strays  # torch and the simulator: only when explaining
-
+    """The first keyframe at which an arm's executed action strays from the expert's at the same index (a
+    gripper turned a half turn about its approach axis is the same grasp: ``gripper_angle_deg``)."""
     for row in steps:
         if row["expert"] is None:
             return Divergence(row["keyframe"], "-", "past the expert's plan")
         executed, expert = np.asarray(row["executed"]), np.asarray(row["expert"])
         for i, (mine, theirs) in enumerate(zip(executed, expert)):
-            if strays(mine, theirs, TOLERANCE_M, TOLERANCE_DEG):
-                what = [name for name, off in (
-                    ("position", np.linalg.norm(mine[:3] - theirs[:3]) > TOLERANCE_M),
-                    ("gripper", (mine[7] > 0.5) != (theirs[7] > 0.5))) if off] or ["rotation"]
+            what = [name for name, off in (
+                ("position", np.linalg.norm(mine[:3] - theirs[:3]) > TOLERANCE_M),
+                ("rotation", gripper_angle_deg(mine[3:7], theirs[3:7]) > TOLERANCE_DEG),
+                ("gripper", (mine[7] > 0.5) != (theirs[7] > 0.5))) if off]
+            if what:
                 return Divergence(row["keyframe"], arms[i] if i < len(arms) else str(i), " + ".join(what))
     return None
 

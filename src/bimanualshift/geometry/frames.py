@@ -99,6 +99,14 @@ def compose_rotation(quat: np.ndarray, rotvec: np.ndarray) -> np.ndarray:
     return canonical_quat((Rotation.from_rotvec(rotvec) * Rotation.from_quat(quat)).as_quat())
 
 
+def gripper_angle_deg(quat_a: np.ndarray, quat_b: np.ndarray) -> float:
+    """Degrees between two gripper orientations ((x, y, z, w) quaternions), a half turn about the approach axis
+    (the gripper's own z) counting as none: a parallel gripper's two fingers are alike."""
+    a, b = Rotation.from_quat(quat_a), Rotation.from_quat(quat_b)
+    flipped = b * Rotation.from_euler("z", np.pi)
+    return float(np.degrees(min((a.inv() * b).magnitude(), (a.inv() * flipped).magnitude())))
+
+
 def rotation_difference(quat_target: np.ndarray, quat_base: np.ndarray) -> np.ndarray:
     """Axis-angle r with exp(r) * R_base = R_target (inverse of ``compose_rotation``)."""
     return (Rotation.from_quat(quat_target) * Rotation.from_quat(quat_base).inv()).as_rotvec()
