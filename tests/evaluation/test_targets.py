@@ -59,3 +59,17 @@ def test_table1_targets_against_the_best_baseline_and_on_each_long_task() -> Non
     assert sweep["met"] is False and "not in this run" in sweep["measured"]  # 0 % misses whatever the baseline
     assert targets["no_refinement below the full method"]["met"] is True
     assert targets["paper_literal below the full method"]["met"] is None
+
+
+def test_a_baseline_registered_by_a_plugin_joins_the_best_baseline_target() -> None:
+    from dataclasses import replace
+
+    from bimanualshift.registry import METHODS, register_method
+
+    register_method(replace(METHODS["peract_lf"], name="my_lab_baseline", description="a lab's own baseline"))
+    try:
+        rows = [avg("bimanualshift", 0.62), avg("peract_lf", 0.5), avg("my_lab_baseline", 0.7)]
+        best = {t["target"]: t for t in table1_targets(rows)}["≥ the best baseline"]
+        assert best["met"] is False and best["measured"].startswith("62 % vs my_lab_baseline 70 %")
+    finally:
+        del METHODS["my_lab_baseline"]
