@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import replace
+from pathlib import Path
 
 import pytest
 
@@ -107,3 +108,28 @@ def test_long_horizon_continues_each_task_from_the_one_before(tmp_path: object) 
     assert _request(cfg, "buttons_then_lift_ball", "no_residual").overrides == {}  # trains nothing
     with pytest.raises(FileNotFoundError, match="peract_lf has no earlier run"):
         _request(cfg, "buttons_then_lift_ball", "peract_lf")
+
+
+def test_recorded_only_tabulates_the_methods_recorded_on_every_task_and_runs_nothing(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    import json
+
+    from bimanualshift.data.seeds import split_seeds
+    from bimanualshift.evaluation.studies import TABLE1_TASKS, run_study
+
+    monkeypatch.chdir(tmp_path)  # the study's runs/ and data/ are relative: nothing may appear there
+    seeds = split_seeds("test", 2)
+    recorded = {"bimanualshift": TABLE1_TASKS, "peract_lf": TABLE1_TASKS[:3]}  # peract_lf: the long tasks only
+    for half, tasks in (("complex_tasks", TABLE1_TASKS[:3]), ("simpler_tasks", TABLE1_TASKS[3:])):
+        folder = tmp_path / "results" / "table1" / half
+        folder.mkdir(parents=True)
+        lines = [{"task": t, "method": m, "seed": s, "success": s == seeds[0], "keyframes": 3}
+                 for m, done in recorded.items() for t in tasks if t in done for s in seeds]
+        (folder / "episodes.jsonl").write_text("".join(json.dumps(e) + "\n" for e in lines))
+    summary = json.loads(run_study("table1", {"episodes": 2, "videos": 0}, "results", recorded_only=True).read_text())
+    averages = {r["method"]: r for r in summary["rows"] if r["task"] == "average"}
+    assert set(averages) == {"bimanualshift"} and averages["bimanualshift"]["success"] == 0.5
+    assert {r["task"] for r in summary["rows"] if r["method"] == "bimanualshift"} == {*TABLE1_TASKS, "average"}
+    assert not (tmp_path / "runs").exists() and not (tmp_path / "data").exists()
+    with pytest.raises(ValueError, match="no method has every episode"):
+        run_study("table1", {"episodes": 3, "videos": 0}, "elsewhere", recorded_only=True)

@@ -85,6 +85,9 @@ StudyOverrides.__module__ = __name__
 class StudyArgs:
     name: Annotated[Literal[STUDIES], tyro.conf.Positional]  # type: ignore[valid-type]  # the study to run
     results: str = "results"  # where results/<study>/ goes
+    # tabulate only the methods whose every episode is recorded (in every run that lists them): nothing trains
+    # or rolls out, so a half-finished study gives its finished rows
+    recorded_only: bool = False
     overrides: StudyOverrides = field(default_factory=StudyOverrides)
 
 
@@ -93,7 +96,7 @@ def study(args: StudyArgs) -> None:
 
     overrides = {f.name: getattr(args.overrides, f.name) for f in fields(args.overrides)
                  if getattr(args.overrides, f.name) is not None}
-    print(f"wrote {run_study(args.name, overrides, args.results)}")
+    print(f"wrote {run_study(args.name, overrides, args.results, args.recorded_only)}")
 
 
 @dataclass

@@ -258,18 +258,23 @@ def stage_success(task: str, episodes: list[dict[str, Any]]) -> dict[str, Any]:
     return {"stages": out}
 
 
+def bench_seeds(cfg: BenchConfig) -> dict[str, list[int]]:
+    """The run's seeds per split; "test" names the seeds the methods are rolled out on (validation seeds with
+    ``evaluate_on="validation"``: the summary records which split they are)."""
+    return {"train": split_seeds("train", cfg.demos), "validation": split_seeds("validation", cfg.validation_demos),
+            "test": split_seeds("test", cfg.episodes) if cfg.evaluate_on == "test"
+            else split_seeds("validation", cfg.episodes, VALIDATION_ROLLOUT_START)}
 
 
+def recorded_methods(cfg: BenchConfig) -> list[str]:
+    """The run's methods whose every rollout (task, perturbation, seed) is already in its ``episodes.jsonl``."""
+    from bimanualshift.sim.task import resolve_task_names
 
-
-
-
-
-
-
-
-
-
+    seeds = bench_seeds(cfg)["test"]
+    done = {_key(e) for e in read_episodes(Path(cfg.out) / "episodes.jsonl")}
+    tasks = resolve_task_names(cfg.tasks)
+    return [m for m in cfg.methods if seeds and all((t, m, p, s) in done for t in tasks for p in cfg.perturbations
+                                                    for s in seeds)]
 
 
 def run_bench(cfg: BenchConfig, command: str | None = None) -> Path:
@@ -294,10 +299,7 @@ def run_bench(cfg: BenchConfig, command: str | None = None) -> Path:
     check_results_folder(cfg)
     if cfg.evaluate_on not in ("test", "validation"):
         raise ValueError(f"evaluate_on must be test or validation, got {cfg.evaluate_on!r}")
-    # "test" below names the seeds the methods are rolled out on; the summary records which split they are
-    seeds = {"train": split_seeds("train", cfg.demos), "validation": split_seeds("validation", cfg.validation_demos),
-             "test": split_seeds("test", cfg.episodes) if cfg.evaluate_on == "test"
-             else split_seeds("validation", cfg.episodes, VALIDATION_ROLLOUT_START)}
+    seeds = bench_seeds(cfg)
 
     jobs = []
     from bimanualshift.sim.perturbations import preset

@@ -16,7 +16,7 @@ from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any
 
-from bimanualshift.evaluation.bench import BenchConfig, average_row, run_bench
+from bimanualshift.evaluation.bench import BenchConfig, average_row, recorded_methods, run_bench
 from bimanualshift.evaluation.plots import draw_plots
 from bimanualshift.evaluation.tables import bench_table, stage_table, targets_table
 from bimanualshift.evaluation.targets import study_targets
@@ -139,13 +139,29 @@ def study_plan(name: str, overrides: dict[str, Any] | None = None, root: str = "
 
 
 
-def run_study(name: str, overrides: dict[str, Any] | None = None, root: str = "results") -> Path:
+def recorded_plan(plan: list[tuple[str, BenchConfig]]) -> list[tuple[str, BenchConfig]]:
+    """The plan narrowed to the methods whose every episode is recorded in every run that lists them, so that
+    running it trains and rolls out nothing (a method recorded on one of Table I's halves only is left out)."""
+    complete = {m for _, cfg in plan for m in cfg.methods}
+    for _, cfg in plan:
+        complete -= set(cfg.methods) - set(recorded_methods(cfg))
+    if not complete:
+        raise ValueError("no method has every episode of this study recorded yet; run it without --recorded-only")
+    return [(label, replace(cfg, methods=[m for m in cfg.methods if m in complete])) for label, cfg in plan
+            if any(m in complete for m in cfg.methods)]
+
+
+def run_study(name: str, overrides: dict[str, Any] | None = None, root: str = "results",
+              recorded_only: bool = False) -> Path:
+    """Run (or resume) every run of the study, then its combined table, plots and targets. ``recorded_only``
+    tabulates the methods whose episodes are all recorded, and nothing more."""
     from bimanualshift.evaluation.report import write_result
 
     started = time.time()
     command = " ".join(["bimanualshift study", *(shlex.quote(a) for a in sys.argv[2:])])
     runs, seeds, configs = [], {}, []
-    for label, cfg in study_plan(name, overrides, root):
+    plan = study_plan(name, overrides, root)
+    for label, cfg in recorded_plan(plan) if recorded_only else plan:
         summary = run_bench(cfg, command=f"{command}  # run: {label}")
         result = json.loads(summary.read_text())
         seeds = {**seeds, **{f"{label} {k}": v for k, v in result["seeds"].items()}}
