@@ -25,8 +25,9 @@ from bimanualshift.sim.perturbations import PRESETS
 from bimanualshift.sim.task import TASK_GROUPS, resolve_task_names
 from bimanualshift.utils.io import atomic_write_text
 
-# Table I's rows: the full method, every baseline and every ablation (the registry says which is which)
-TABLE1_METHODS = ["bimanualshift", *methods_with_role("baseline", "from_scratch", "ablation")]
+# Table I's rows: the full method, every baseline, every ablation and the frozen prior on its own (the registry
+# says which is which)
+TABLE1_METHODS = ["bimanualshift", *methods_with_role("baseline", "from_scratch", "ablation", "reference")]
 FEW_SHOT_TASKS = ["push_two_buttons", "lift_ball", "pick_up_plate"]
 TABLE1_TASKS = ("take_tray_out_of_oven", "straighten_rope", "sweep_to_dustpan", "lift_ball", "push_two_buttons",
                 "pick_up_plate")  # the paper's six RLBench2 tasks (the composite task is the long-horizon study's)
