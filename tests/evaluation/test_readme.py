@@ -122,3 +122,15 @@ def test_a_study_table_carries_its_targets_checked_on_its_rows() -> None:
     assert "| BimanualShift average ≥ 60 % | 20 % | **missed** |" in text
     assert "| no_residual below the full method | 40 % vs 20 % | **missed** |" in text
     assert "target" not in table_for({**result, "study": "generalisation"})
+
+
+def test_report_regenerates_every_document_holding_a_results_block(tmp_path: Path) -> None:
+    from bimanualshift.evaluation.readme import results_documents
+
+    (tmp_path / "docs").mkdir()
+    block = "<!-- results:x -->\nold\n<!-- /results:x -->\n"
+    (tmp_path / "README.md").write_text("# r\n" + block)
+    (tmp_path / "docs" / "a.md").write_text(block)
+    (tmp_path / "docs" / "b.md").write_text("no block here\n")
+    assert results_documents(tmp_path) == [str(tmp_path / "README.md"), str(tmp_path / "docs" / "a.md")]
+    assert str(Path("docs") / "residual.md") in results_documents()  # the project's own docs are found

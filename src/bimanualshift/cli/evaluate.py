@@ -184,17 +184,18 @@ def plot(args: PlotArgs) -> None:
 
 @dataclass
 class ReportArgs:
-    readme: list[str] = field(default_factory=lambda: ["README.md", "docs/results.md"])  # files with results blocks
+    # files with results blocks (default: README.md and every docs/*.md holding one)
+    readme: list[str] = field(default_factory=list)
     results: str = "results"  # results directory
     index: bool = False  # also write results/README.md: every result file's table
 
 
 def report(args: ReportArgs) -> None:
-    from bimanualshift.evaluation.readme import render_index, render_readme
+    from bimanualshift.evaluation.readme import render_index, render_readme, results_documents
 
     if args.index:
         print(f"wrote {render_index(args.results)}")
-    for readme in args.readme:
+    for readme in args.readme or results_documents():
         names = render_readme(readme, args.results)
         print(f"{readme}: regenerated {', '.join(names) if names else 'no results blocks'}")
 

@@ -23,6 +23,13 @@ def result_file(results_dir: Path, name: str) -> Path:
     raise FileNotFoundError(f"no result file for block {name!r} under {results_dir}")
 
 
+def results_documents(root: str | Path = ".") -> list[str]:
+    """README.md and every docs/*.md under ``root`` holding a results block, the files ``report`` regenerates."""
+    root = Path(root)
+    candidates = [root / "README.md", *sorted((root / "docs").glob("*.md"))]
+    return [str(p) for p in candidates if p.is_file() and BLOCK.search(p.read_text())]
+
+
 def render_readme(readme: str | Path, results_dir: str | Path = "results") -> list[str]:
     """Regenerate every results block of ``readme``; returns the names of the blocks it rewrote."""
     readme, results_dir = Path(readme), Path(results_dir)
