@@ -266,15 +266,20 @@ def bench_seeds(cfg: BenchConfig) -> dict[str, list[int]]:
             else split_seeds("validation", cfg.episodes, VALIDATION_ROLLOUT_START)}
 
 
+def _all_recorded(done: set[tuple[str, str, str, int]], method: str, tasks: list[str], perturbations: list[str],
+                  seeds: list[int]) -> bool:
+    """Whether every rollout of ``method`` (task, perturbation, seed) is in ``done``; never with no seeds
+    (``--episodes 0`` asks for training only)."""
+    return bool(seeds) and all((t, method, p, s) in done for t in tasks for p in perturbations for s in seeds)
+
+
 def recorded_methods(cfg: BenchConfig) -> list[str]:
     """The run's methods whose every rollout (task, perturbation, seed) is already in its ``episodes.jsonl``."""
     from bimanualshift.sim.task import resolve_task_names
 
-    seeds = bench_seeds(cfg)["test"]
     done = {_key(e) for e in read_episodes(Path(cfg.out) / "episodes.jsonl")}
-    tasks = resolve_task_names(cfg.tasks)
-    return [m for m in cfg.methods if seeds and all((t, m, p, s) in done for t in tasks for p in cfg.perturbations
-                                                    for s in seeds)]
+    tasks, seeds = resolve_task_names(cfg.tasks), bench_seeds(cfg)["test"]
+    return [m for m in cfg.methods if _all_recorded(done, m, tasks, cfg.perturbations, seeds)]
 
 
 def run_bench(cfg: BenchConfig, command: str | None = None) -> Path:
@@ -311,8 +316,7 @@ def run_bench(cfg: BenchConfig, command: str | None = None) -> Path:
     for task in tasks:
         # A method whose every test episode is already recorded is neither retrained nor re-collected for, so
         # adding a method to a finished run costs only that method.
-        pending = [m for m in cfg.methods if not seeds["test"]  # --episodes 0: training only
-                   or any((task, m, p, s) not in done for p in cfg.perturbations for s in seeds["test"])]
+        pending = [m for m in cfg.methods if not _all_recorded(done, m, [task], cfg.perturbations, seeds["test"])]
         if pending:
             collect([task], seeds["train"], f"{cfg.data}/train", workers=cfg.workers)
             collect([task], seeds["validation"], f"{cfg.data}/validation", workers=cfg.workers)
