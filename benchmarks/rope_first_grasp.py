@@ -47,10 +47,12 @@ def main() -> None:
     env.close()
     rows = []
     for method in dict.fromkeys(r["method"] for r in logs):
-        errors, off_rope, along = [], [], []
+        errors, off_rope, along, residual = [], [], [], []
         for r in (x for x in logs if x["method"] == method):
             first = r["steps"][0]
             segments = rope[r["seed"]]
+            # how far the residual moved each arm's first action from the prior's (residual methods only)
+            residual += [a["residual_cm"] for a in (first.get("policy") or {}).get("arms", []) if "residual_cm" in a]
             for executed, expert in zip(first["executed"], first["expert"]):
                 mine, theirs = np.asarray(executed[:2]), np.asarray(expert[:2])
                 errors.append(100 * np.linalg.norm(mine - theirs))
@@ -63,11 +65,15 @@ def main() -> None:
                      "within_2cm": round(float(np.mean(np.asarray(errors) <= 2.0)), 3),
                      "off_rope_cm_median": round(float(np.median(off_rope)), 2),
                      "along_rope_gap_median": round(float(np.median(along)), 3),
-                     "same_end": round(float(np.mean(np.asarray(along) < 0.5)), 3)})
+                     "same_end": round(float(np.mean(np.asarray(along) < 0.5)), 3),
+                     "residual_cm_max": round(float(np.max(residual)), 2) if residual else None,
+                     "residual_cm_median": round(float(np.median(residual)), 2) if residual else None})
     for row in rows:
         print(f"{row['method']:22s} first grasp {row['grasp_error_cm_median']:5.1f} cm from the expert's (median), "
               f"{100 * row['within_2cm']:3.0f} % within 2 cm, {row['off_rope_cm_median']:4.1f} cm off the rope, "
-              f"same end {100 * row['same_end']:.0f} %")
+              f"same end {100 * row['same_end']:.0f} %"
+              + ("" if row["residual_cm_max"] is None else f", residual {row['residual_cm_median']} cm median, "
+                 f"{row['residual_cm_max']} cm max"))
     command = " ".join(["python benchmarks/rope_first_grasp.py", *(shlex.quote(a) for a in sys.argv[1:])])
     write_result(args.out, command, {"test": seeds}, started, rows,
                  notes="keyframe 0 of every logged test episode, both arms; horizontal distances in cm; rope "
