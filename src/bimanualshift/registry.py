@@ -144,6 +144,10 @@ register_method(_residual_method(
     "proposal) and rotation bins instead of moving its action (compare with no_refinement on validation seeds)",
     refine=False, retrieval=True, action_space=True))
 register_method(_residual_method(
+    "goal_extremities", "variant: the Manager also reads the goal's two extremities (each end's tip and direction, "
+    "this arm's end first) beside its box (compare with no_refinement on validation seeds)", refine=False,
+    retrieval=True, goal_extremities=True))
+register_method(_residual_method(
     "no_projection", "ablation: the prior sees the global scene", retrieval=True, use_projection=False,
     role="ablation"))
 register_method(_frozen_prior_method(

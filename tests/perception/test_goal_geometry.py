@@ -61,3 +61,43 @@ def test_projection_locates_the_goal_object_of_a_real_scene(bimanual_episode_pat
     # Without a projection nothing is segmented, so the goal is not located.
     plain = ArmObservationBuilder(VoxelGrid(DEFAULT_ARM_BOUNDS, 16)).build(obs)
     assert not plain["left"].goal.any()
+
+
+def curved_chain(rng: np.random.Generator, points_per_cm: int = 4) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A 1 cm thick S-curve 0.6 m long lying on a table in front of the arm, its two ends and its samples."""
+    s = np.linspace(0.0, 1.0, 60 * points_per_cm)
+    centre = np.stack([0.5 + 0.12 * np.sin(2 * np.pi * s), -0.3 + 0.6 * s, np.zeros_like(s)], axis=1)
+    cloud = centre + rng.normal(0.0, 0.003, size=centre.shape)
+    return cloud, centre[0], centre[-1]
+
+
+def test_extremities_are_the_ends_of_a_curve_not_its_box_corners() -> None:
+    from bimanualshift.perception.goal_geometry import BOX_GEOMETRY_DIM, TIP_LENGTH_M
+
+    cloud, start, end = curved_chain(np.random.default_rng(0))
+    frame = ArmFrame((0.0, 0.0, 0.0))
+    geometry = goal_geometry(cloud, frame, BOUNDS)
+    first, second = geometry[BOX_GEOMETRY_DIM:BOX_GEOMETRY_DIM + 6], geometry[BOX_GEOMETRY_DIM + 6:]
+    # the tips lie within half a tip length of the true ends (the tip is the mean of the last TIP_LENGTH_M)
+    tips = sorted([first[:3], second[:3]], key=lambda t: t[1])
+    assert np.linalg.norm(tips[0] - start) < TIP_LENGTH_M / 2 + 0.005
+    assert np.linalg.norm(tips[1] - end) < TIP_LENGTH_M / 2 + 0.005
+    # ordered by |y|: both ends are 0.3 m to the side here; shift the cloud so one end is nearer the arm
+    shifted = goal_geometry(cloud + [0.0, 0.1, 0.0], frame, BOUNDS)
+    np.testing.assert_allclose(shifted[BOX_GEOMETRY_DIM:BOX_GEOMETRY_DIM + 3], start + [0.0, 0.1, 0.0], atol=0.025)
+    # each direction is a horizontal unit vector pointing from the tip into the curve
+    for part, tip in ((shifted[BOX_GEOMETRY_DIM:BOX_GEOMETRY_DIM + 6], start), (shifted[BOX_GEOMETRY_DIM + 6:], end)):
+        direction = part[3:6]
+        assert abs(np.linalg.norm(direction) - 1.0) < 1e-5 and direction[2] == 0.0
+        inward = (cloud[40 if tip is start else -40] - tip)[:2]
+        assert direction[:2] @ inward / np.linalg.norm(inward) > 0.8
+
+
+def test_extremities_keep_to_the_largest_piece_and_are_deterministic() -> None:
+    cloud, start, _ = curved_chain(np.random.default_rng(1))
+    stray = np.random.default_rng(2).normal([0.8, 0.4, 0.0], 0.002, size=(15, 3))  # a small far-off blob
+    frame = ArmFrame((0.0, 0.0, 0.0))
+    with_stray = goal_geometry(np.r_[cloud, stray], frame, BOUNDS)
+    for tip in (with_stray[10:13], with_stray[16:19]):  # neither end is the blob
+        assert np.linalg.norm(tip - stray.mean(0)) > 0.2
+    np.testing.assert_array_equal(with_stray, goal_geometry(np.r_[cloud, stray], frame, BOUNDS))

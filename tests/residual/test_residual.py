@@ -135,3 +135,19 @@ def test_the_prior_proposal_features_take_their_own_columns_and_a_wrong_width_is
         manager_input_rows(cfg, *parts, torch.tensor([0, 1]), torch.tensor([0, 3]))
     with pytest.raises(ValueError, match="got 3 columns"):
         manager_input_rows(cfg, *parts, torch.tensor([0, 1]), torch.tensor([0, 3]), proposal=proposal[:, :3])
+
+
+def test_a_residual_trained_on_the_goal_box_reads_the_box_of_a_wider_goal_row() -> None:
+    from bimanualshift.perception.goal_geometry import BOX_GEOMETRY_DIM, GOAL_GEOMETRY_DIM
+    from bimanualshift.residual.manager import manager_input_rows
+
+    g = torch.Generator().manual_seed(0)
+    parts = [torch.rand(2, w, generator=g) for w in (5, 9, 8, 8, 8)]
+    goal = torch.rand(2, GOAL_GEOMETRY_DIM, generator=g)  # what today's projection gives: box + extremities
+    for width in (BOX_GEOMETRY_DIM, GOAL_GEOMETRY_DIM):
+        cfg = ResidualConfig(feature_dim=5, text_dim=8, goal_dim=width)
+        rows = manager_input_rows(cfg, *parts, torch.tensor([0, 1]), torch.tensor([0, 3]), goal=goal)
+        torch.testing.assert_close(rows[:, cfg.layout()["goal"]], goal[:, :width])
+    with pytest.raises(ValueError, match="got 9 columns"):  # narrower than the residual reads: a wrong prior step
+        manager_input_rows(ResidualConfig(feature_dim=5, text_dim=8, goal_dim=BOX_GEOMETRY_DIM), *parts,
+                           torch.tensor([0, 1]), torch.tensor([0, 3]), goal=goal[:, :9])

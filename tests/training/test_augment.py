@@ -76,3 +76,20 @@ def test_goal_geometry_moves_with_the_scene_and_unseen_goals_stay_zero() -> None
     assert moved[0, 9] == 1.0 and torch.equal(moved[1], torch.zeros(10))
     pure_shift = transform_goal_geometry(goal[:1], GRID, torch.zeros(1), shift[:1])  # exact for a translation
     torch.testing.assert_close(pure_shift[0, :9], seen[:9] + shift[0].repeat(3))
+
+
+def test_goal_extremities_move_with_the_scene() -> None:
+    from bimanualshift.training.augment import transform_goal_geometry
+
+    box = [0.55, 0.0, 0.02, 0.5, -0.1, 0.0, 0.6, 0.1, 0.05, 1.0]
+    ends = [0.5, -0.1, 0.01, 1.0, 0.0, 0.0, 0.6, 0.1, 0.01, 0.0, -1.0, 0.0]  # tip, direction into the object
+    goal = torch.tensor([box + ends, [0.0] * 22])
+    yaw, shift = torch.tensor([0.4, 0.4]), torch.tensor([[0.02, -0.03, 0.0]] * 2)
+    moved = transform_goal_geometry(goal, GRID, yaw, shift)
+    for start in (10, 16):
+        torch.testing.assert_close(moved[0, start:start + 3],
+                                   transform_points(goal[:1, start:start + 3], GRID, yaw[:1], shift[:1])[0])
+        # a direction turns with the yaw and is not shifted: tip + direction maps to moved tip + moved direction
+        head = transform_points(goal[:1, start:start + 3] + goal[:1, start + 3:start + 6], GRID, yaw[:1], shift[:1])[0]
+        torch.testing.assert_close(moved[0, start + 3:start + 6], head - moved[0, start:start + 3])
+    assert torch.equal(moved[1], torch.zeros(22))

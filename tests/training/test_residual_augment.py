@@ -35,7 +35,8 @@ def test_augmented_copies_move_scene_targets_poses_and_goal_together(demo_root: 
         return predict(voxels, proprio, text)
 
     prior.predict = recording  # type: ignore[method-assign]
-    config = ResidualModelConfig().residual_config(prior.feature_dim, 384, prior.proposal_feature_dim)
+    config = ResidualModelConfig(goal_extremities=True).residual_config(prior.feature_dim, 384,
+                                                                         prior.proposal_feature_dim)
     paths = list_episodes(demo_root / "bimanual", "push_two_buttons")[:1]
     data = residual_data(config, paths, step, default_text_encoder(), None, Se3Augmentation(0.04, 15.0),
                          augment_copies=2, seed=0)
@@ -44,12 +45,14 @@ def test_augmented_copies_move_scene_targets_poses_and_goal_together(demo_root: 
     own = data.inputs[:, layout["proprio"]][:, :3]
     other = data.inputs[:, layout["other_proprio"]][:, :3]
     goal = data.inputs[:, layout["goal"]][:, :3]
+    tips = [data.inputs[:, layout["goal"]][:, start:start + 3] for start in (10, 16)]  # the extremities' tips
     base = data.inputs[:, layout["base_action"]][:, :3]
     target = base + data.translation  # the expert's position in each copy's frame
     original, copies = slice(0, n), [slice(n, 2 * n), slice(2 * n, 3 * n)]
     for copy in copies:
         assert not torch.allclose(target[copy], target[original])  # the copy moved
-        for a, b in ((target, own), (target, other), (target, goal), (own, other)):  # rigid: distances kept
+        for a, b in ((target, own), (target, other), (target, goal), (own, other), (target, tips[0]),
+                     (target, tips[1])):  # rigid: distances kept
             torch.testing.assert_close((a[copy] - b[copy]).norm(dim=-1), (a[original] - b[original]).norm(dim=-1),
                                        atol=1e-4, rtol=0)
     assert torch.equal(data.gripper[original], data.gripper[copies[0]])  # labels do not move

@@ -203,6 +203,8 @@ def manager_input_rows(config: ResidualConfig, features: torch.Tensor, proprio: 
     and inference all build their rows here. The retrieved reference, the goal geometry and the prior's proposal
     features must be given when the config reads them; the (arm, keyframe) phase one-hot is derived from
     ``keyframe``."""
+    if config.goal_dim and goal is not None and goal.shape[-1] > config.goal_dim:
+        goal = goal[..., :config.goal_dim]  # a residual trained before the extremities reads the box alone
     for name, width, value in (("reference", config.reference_dim, reference), ("goal", config.goal_dim, goal),
                                ("proposal", config.proposal_dim, proposal)):
         if width and value is None:

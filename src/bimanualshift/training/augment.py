@@ -133,9 +133,11 @@ def transform_poses(poses: torch.Tensor, grid: VoxelGrid, yaw: torch.Tensor, tra
 
 def transform_goal_geometry(goal: torch.Tensor, grid: VoxelGrid, yaw: torch.Tensor, translation: torch.Tensor
                             ) -> torch.Tensor:
-    """(B, 10) goal geometry (centroid, 5th / 95th percentile corners, seen flag) of the moved scene: the centroid
-    moves exactly; the corners become the axis-aligned bounds of the moved box (exact for a pure translation, a
-    little wider under yaw). Unseen goals stay all zeros."""
+    """(B, 10 or 22) goal geometry (``perception.goal_geometry``: centroid, 5th / 95th percentile corners, seen
+    flag, then each extremity's tip and direction) of the moved scene: the centroid and the tips move exactly, the
+    directions turn with the yaw; the corners become the axis-aligned bounds of the moved box (exact for a pure
+    translation, a little wider under yaw). Unseen goals stay all zeros. The extremities keep their order (which
+    end is this arm's does not change under a few centimetres' shift)."""
     out = goal.clone()
     seen = goal[:, 9] > 0
     out[:, 0:3] = transform_points(goal[:, 0:3], grid, yaw, translation)
@@ -144,4 +146,9 @@ def transform_goal_geometry(goal: torch.Tensor, grid: VoxelGrid, yaw: torch.Tens
     corners = torch.where(pick[None], high[:, None], low[:, None])  # (B, 8, 3)
     moved = transform_points(corners, grid, yaw, translation)
     out[:, 3:6], out[:, 6:9] = moved.min(1).values, moved.max(1).values
+    if goal.shape[1] > 10:
+        turn = yaw_matrix(yaw).to(goal.dtype)
+        for start in (10, 16):  # each end: tip (a point), direction (turned only)
+            out[:, start:start + 3] = transform_points(goal[:, start:start + 3], grid, yaw, translation)
+            out[:, start + 3:start + 6] = torch.einsum("bij,bj->bi", turn, goal[:, start + 3:start + 6])
     return torch.where(seen[:, None], out, goal)
