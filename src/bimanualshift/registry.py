@@ -148,6 +148,10 @@ register_method(_residual_method(
     "this arm's end first) beside its box (compare with no_refinement on validation seeds)", refine=False,
     retrieval=True, goal_extremities=True))
 register_method(_residual_method(
+    "keyframe_gate", "variant: goal_extremities with the output gate's factors chosen per keyframe (compare with "
+    "no_refinement and goal_extremities on validation seeds)", refine=False, retrieval=True, goal_extremities=True,
+    gate_per_keyframe=True))
+register_method(_residual_method(
     "no_projection", "ablation: the prior sees the global scene", retrieval=True, use_projection=False,
     role="ablation"))
 register_method(_frozen_prior_method(

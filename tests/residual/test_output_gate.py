@@ -64,3 +64,32 @@ def test_a_residual_without_the_gate_or_without_data_is_refused() -> None:
     with pytest.raises(ValueError, match="no validation samples"):
         choose_output_scale(constant_residual([0, 0, 0], [0, 0, 0]), inputs(2)[:0], torch.zeros(0, 3),
                             torch.zeros(0, 3))
+
+
+def test_per_keyframe_factors_keep_the_residual_where_it_helps_and_drop_it_where_it_hurts() -> None:
+    from bimanualshift.residual.manager import manager_input_rows
+
+    cfg = ResidualConfig(feature_dim=5, text_dim=8, hidden=16, output_gate=True, phase_dim=8, gate_per_keyframe=True)
+    residual = ResidualPolicy(cfg, SkillBasis(cfg.num_skills, 8))
+    with torch.no_grad():
+        residual.g.bias.copy_(torch.tensor([0.03, 0.0, 0.0, 0.0, 0.0, 0.0]))  # 3 cm along x everywhere
+    n = 12
+    g = torch.Generator().manual_seed(0)
+    parts = [torch.rand(n, w, generator=g) for w in (5, 9, 8, 8, 8)]
+    keyframe = torch.tensor([0, 1, 2] * 4)
+    arm = torch.tensor([0] * 6 + [1] * 6)  # both arms' keyframe k share slot k
+    rows = manager_input_rows(cfg, *parts, arm, keyframe)
+    target = torch.zeros(n, 3)
+    target[keyframe == 0, 0] = 0.03  # keyframe 0: the prior misses by 3 cm, the residual fixes it
+    target[keyframe == 2, 0] = 0.015  # keyframe 2: half of it; keyframe 1: the prior is exact
+    chosen = choose_output_scale(residual, rows, target, torch.zeros(n, 3))
+    assert chosen["per_keyframe"]["keyframes"] == [0, 1, 2]
+    assert chosen["per_keyframe"]["translation_scale"] == [1.0, 0.0, 0.5]
+    assert chosen["per_keyframe"]["translation_clipped_error"] == pytest.approx(0.0, abs=1e-6)
+    out = residual(rows)["translation"][:, 0]
+    torch.testing.assert_close(out, target[:, 0])  # each row gets its keyframe's factor in forward
+    # a slot no validation sample reached keeps the factor chosen on all samples (here 0.5)
+    assert residual.output_scale[3].tolist() == [chosen["translation_scale"], chosen["rotation_scale"]]
+    with pytest.raises(ValueError, match="gate_per_keyframe"):
+        ResidualPolicy(ResidualConfig(feature_dim=5, text_dim=8, output_gate=True, gate_per_keyframe=True),
+                       SkillBasis(16, 8))

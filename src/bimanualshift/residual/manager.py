@@ -33,6 +33,10 @@ class ResidualConfig:
     # The residual's translation and rotation are scaled by factors chosen on validation demos after training
     # (``output_scale``; 1 while training): where the prior is already precise, the residual is turned down.
     output_gate: bool = False
+    # One (translation, rotation) factor pair per keyframe slot of the phase one-hot instead of one for all: the
+    # residual can be kept where it corrects a far-off prior (a carry the prior never saw) and turned down where
+    # the prior is already precise (a grasp). Needs ``phase_dim``.
+    gate_per_keyframe: bool = False
     # Coordination outputs beyond the paper's Eq. 4 (both False: the paper-literal residual, translation and
     # rotation only). ``gripper_residual``: a logit added to the prior's open/close logit. ``hold``: a logit that,
     # when positive, keeps the arm where its last action put it while the other arm acts.
@@ -49,6 +53,11 @@ class ResidualConfig:
     action_window: int = 9
     action_cell_m: float = 0.02
     rotation_bins: int = 0
+
+    @property
+    def gate_slots(self) -> int:
+        """Rows of ``output_scale``: one per keyframe slot with ``gate_per_keyframe``, else 1."""
+        return self.phase_dim // self.num_arms if self.gate_per_keyframe else 1
 
     @property
     def lattice_cells(self) -> int:
@@ -122,8 +131,11 @@ class ResidualPolicy(nn.Module):
         if config.normalise_inputs:
             self.register_buffer("input_mean", torch.zeros(self.manager.in_dim))
             self.register_buffer("input_std", torch.ones(self.manager.in_dim))
-        if config.output_gate:  # (translation, rotation) factors; see choose_output_scale
-            self.register_buffer("output_scale", torch.ones(2))
+        if config.gate_per_keyframe and not (config.output_gate and config.phase_dim):
+            raise ValueError("gate_per_keyframe needs output_gate and a phase one-hot (phase_dim > 0)")
+        if config.output_gate:  # (translation, rotation) factors, per keyframe slot or one row; choose_output_scale
+            self.register_buffer("output_scale", torch.ones(2) if not config.gate_per_keyframe
+                                 else torch.ones(config.gate_slots, 2))
         self.g = nn.Linear(skill_dim, 6 + config.extra_outputs)
         nn.init.zeros_(self.g.weight)  # start as the identity: the prior's action unchanged ...
         nn.init.zeros_(self.g.bias)
@@ -146,6 +158,7 @@ class ResidualPolicy(nn.Module):
         ``hold_logit`` (N,); the skill weights and v."""
         c = self.config
         prior_gripper = inputs[:, c.layout()["base_action"].start + 7]  # the prior's open probability, raw
+        slot = keyframe_slots(c, inputs) if c.gate_per_keyframe else None
         if c.normalise_inputs:
             inputs = (inputs - self.input_mean) / self.input_std
         weights, compensation = self.manager(inputs)
@@ -153,7 +166,8 @@ class ResidualPolicy(nn.Module):
         residual = self.g(v)
         translation, rotation = residual[:, :3], residual[:, 3:6]
         if c.output_gate:
-            translation, rotation = translation * self.output_scale[0], rotation * self.output_scale[1]
+            scale = self.output_scale[slot] if slot is not None else self.output_scale[None]  # (N or 1, 2)
+            translation, rotation = translation * scale[:, :1], rotation * scale[:, 1:]
         out = {"translation": translation, "rotation": rotation, "weights": weights, "v": v}
         column = 6
         if c.gripper_residual:
@@ -168,6 +182,11 @@ class ResidualPolicy(nn.Module):
             column += c.lattice_cells
             out["rotation_logits"] = residual[:, column: column + 3 * c.rotation_bins].view(-1, 3, c.rotation_bins)
         return out
+
+
+def keyframe_slots(config: ResidualConfig, inputs: torch.Tensor) -> torch.Tensor:
+    """(N,) each raw Manager input row's keyframe slot, read from its (arm, keyframe) phase one-hot."""
+    return inputs[:, config.layout()["phase"]].argmax(-1) % (config.phase_dim // config.num_arms)
 
 
 def action_lattice(config: ResidualConfig) -> torch.Tensor:

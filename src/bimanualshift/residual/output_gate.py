@@ -9,9 +9,11 @@ that spoils the many it places well.
 
 from __future__ import annotations
 
+from typing import Any
+
 import torch
 
-from bimanualshift.residual.manager import ResidualPolicy
+from bimanualshift.residual.manager import ResidualPolicy, keyframe_slots
 
 SCALE_GRID = (1.0, 0.75, 0.5, 0.25, 0.0)  # on a tie the larger factor wins (the order min() sees them in)
 TRANSLATION_CLIP_M = 0.05
@@ -25,9 +27,11 @@ def clipped_error(target: torch.Tensor, prediction: torch.Tensor, scale: float, 
 
 @torch.no_grad()
 def choose_output_scale(residual: ResidualPolicy, inputs: torch.Tensor, translation: torch.Tensor,
-                        rotation: torch.Tensor) -> dict[str, float]:
+                        rotation: torch.Tensor) -> dict[str, Any]:
     """Set ``residual.output_scale`` from validation data (targets: expert minus prior, arm frame) and return the
-    chosen factors with each one's clipped error and the error of the prior alone (factor 0)."""
+    chosen factors with each one's clipped error and the error of the prior alone (factor 0). With
+    ``gate_per_keyframe`` each keyframe slot gets its own factors, chosen on that slot's samples; a slot no
+    validation sample reaches keeps the factors chosen on all of them."""
     if not residual.config.output_gate:
         raise ValueError("this residual was built with output_gate=False; train it with --output-gate true")
     if len(inputs) == 0:
@@ -35,16 +39,38 @@ def choose_output_scale(residual: ResidualPolicy, inputs: torch.Tensor, translat
                          "demos (`bimanualshift collect --split validation`)")
     residual.output_scale.fill_(1.0)
     out = residual(inputs)
-    chosen = {}
-    for i, (name, target, clip) in enumerate((("translation", translation, TRANSLATION_CLIP_M),
-                                              ("rotation", rotation, ROTATION_CLIP_RAD))):
-        costs = {s: clipped_error(target, out[name], s, clip) for s in SCALE_GRID}
-        best = min(SCALE_GRID, key=lambda s: costs[s])
-        residual.output_scale[i] = best
+    parts = (("translation", translation, TRANSLATION_CLIP_M), ("rotation", rotation, ROTATION_CLIP_RAD))
+    chosen: dict[str, Any] = {}
+    overall = []
+    for name, target, clip in parts:
+        best, costs = best_scale(target, out[name], clip)
+        overall.append(best)
         chosen[f"{name}_scale"] = best
         chosen[f"{name}_clipped_error"] = round(costs[best], 5)
         chosen[f"{name}_clipped_error_prior"] = round(costs[0.0], 5)
+    if not residual.config.gate_per_keyframe:
+        residual.output_scale.copy_(torch.tensor(overall))
+        return chosen
+    slots = keyframe_slots(residual.config, inputs)
+    residual.output_scale.copy_(torch.tensor(overall).expand_as(residual.output_scale))
+    for slot in {int(s) for s in slots}:
+        rows = slots == slot
+        for i, (name, target, clip) in enumerate(parts):
+            residual.output_scale[slot, i] = best_scale(target[rows], out[name][rows], clip)[0]
+    seen = sorted({int(s) for s in slots})
+    per_keyframe: dict[str, Any] = {"keyframes": seen}
+    for i, (name, target, clip) in enumerate(parts):
+        per_keyframe[f"{name}_scale"] = [float(residual.output_scale[s, i]) for s in seen]
+        scaled = out[name] * residual.output_scale[slots, i:i + 1]
+        per_keyframe[f"{name}_clipped_error"] = round(clipped_error(target, scaled, 1.0, clip), 5)
+    chosen["per_keyframe"] = per_keyframe
     return chosen
+
+
+def best_scale(target: torch.Tensor, prediction: torch.Tensor, clip: float) -> tuple[float, dict[float, float]]:
+    """The factor of ``SCALE_GRID`` with the least clipped error on these samples, and every factor's error."""
+    costs = {s: clipped_error(target, prediction, s, clip) for s in SCALE_GRID}
+    return min(SCALE_GRID, key=lambda s: costs[s]), costs
 
 
 def reset_output_scale(residual: ResidualPolicy) -> None:

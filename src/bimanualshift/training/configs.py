@@ -112,6 +112,7 @@ class ResidualModelConfig:
     # After training, scale the residual's translation and rotation by factors chosen on the validation demos
     # (residual/output_gate.py): the residual is turned down where the prior alone places keyframes better.
     output_gate: bool = True
+    gate_per_keyframe: bool = False  # the gate's factors chosen per keyframe slot (needs --phase-slots > 0)
     # The paper-literal residual of Eq. 4: translation and rotation only. Off (the default): the residual also
     # moves the prior's gripper logit and may hold an arm while the other acts (docs/residual.md).
     paper_literal: bool = False
@@ -140,6 +141,7 @@ class ResidualModelConfig:
                               read_prior_features=self.prior_features, geometric_skip=self.geometric_skip,
                               # the gate scales continuous moves; an action-space residual makes none
                               output_gate=self.output_gate and not self.action_space,
+                              gate_per_keyframe=self.gate_per_keyframe and self.output_gate and not self.action_space,
                               gripper_residual=not self.paper_literal, hold=not self.paper_literal,
                               proposal_dim=proposal_dim if self.proposal_features else 0,
                               action_space=self.action_space, action_window=self.action_window,
