@@ -1,0 +1,79 @@
+"""How close the goal geometry's cues lie to each arm's first expert keyframe (writes results/goal_extremities.json)
+
+    .venv/bin/python benchmarks/goal_extremities.py --data data/bench/train --tasks straighten_rope sweep_to_dustpan
+
+For every demo of each task, both arms: the horizontal distance from the expert's keyframe-0 position to the goal
+box's centroid and to the tip of the arm's own extremity (``perception/goal_geometry.py``), both in the arm's frame
+and from the same projection and segmentation training uses. Nothing is trained or rolled out.
+"""
+
+from __future__ import annotations
+
+import argparse
+import shlex
+import sys
+import time
+
+import numpy as np
+from tqdm import tqdm
+
+from bimanualshift.data.episode import list_episodes, read_episode
+from bimanualshift.data.frames import KeyframeObservation
+from bimanualshift.evaluation.report import write_result
+from bimanualshift.geometry.frames import ArmFrame
+from bimanualshift.geometry.voxels import VoxelGrid
+from bimanualshift.perception.goal_geometry import BOX_GEOMETRY_DIM
+from bimanualshift.perception.observation import DEFAULT_ARM_BOUNDS, ArmObservationBuilder
+from bimanualshift.perception.projection import ArmProjection
+from bimanualshift.perception.segmenters.simulator import SimulatorSegmenter
+
+
+def summary(errors: list[float]) -> dict[str, float]:
+    e = np.asarray(errors)
+    return {"median_cm": round(float(np.median(e)), 2), "within_2cm": round(float(np.mean(e <= 2.0)), 3),
+            "p90_cm": round(float(np.percentile(e, 90)), 2)}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--data", default="data/bench/train", help="a folder of bimanual demos (<task>/episode_*.h5)")
+    parser.add_argument("--tasks", nargs="+", default=["straighten_rope"])
+    parser.add_argument("--out", default="results/goal_extremities.json")
+    args = parser.parse_args()
+    started = time.time()
+    builder = ArmObservationBuilder(VoxelGrid(DEFAULT_ARM_BOUNDS, 16), ArmProjection(SimulatorSegmenter()),
+                                    voxels=False, points=1)
+    rows, seeds = [], {}
+    for task in args.tasks:
+        paths = list_episodes(args.data, task)
+        if not paths:
+            sys.exit(f"error: no demos of {task} under {args.data}")
+        centroid, tip, build_s = [], [], []
+        for path in tqdm(paths, desc=task, unit="ep"):
+            episode = read_episode(path)
+            seeds.setdefault(task, []).append(int(episode.seed))
+            obs = KeyframeObservation.from_episode(episode, 0)
+            t0 = time.perf_counter()
+            per_arm = builder.build(obs)
+            build_s.append(time.perf_counter() - t0)
+            for i, arm in enumerate(episode.arm_names):
+                frame = ArmFrame(tuple(episode.arm_bases[arm]))
+                action = episode["actions"][0, i]
+                target, _ = frame.pose_to_arm(action[:3], action[3:7])
+                goal = per_arm[arm].goal
+                centroid.append(100 * float(np.linalg.norm(goal[:2] - target[:2])))
+                tip.append(100 * float(np.linalg.norm(goal[BOX_GEOMETRY_DIM:BOX_GEOMETRY_DIM + 2] - target[:2])))
+        rows.append({"task": task, "arms": len(tip), "centroid": summary(centroid), "own_tip": summary(tip),
+                     "projection_s_per_keyframe": round(float(np.median(build_s)), 3)})
+        print(f"{task}: expert's first keyframe from the box centroid {rows[-1]['centroid']['median_cm']} cm, from "
+              f"the arm's own tip {rows[-1]['own_tip']['median_cm']} cm (median of {len(tip)} arms)")
+    command = " ".join(["python benchmarks/goal_extremities.py", *(shlex.quote(a) for a in sys.argv[1:])])
+    write_result(args.out, command, seeds, started, rows,
+                 notes="keyframe 0 of every demo, both arms; horizontal distances in cm in the arm's frame; "
+                       "projection_s_per_keyframe: the whole projection of one keyframe (segmentation, goal points, "
+                       "box and extremities for both arms), median")
+    print(f"wrote {args.out}")
+
+
+if __name__ == "__main__":
+    main()
