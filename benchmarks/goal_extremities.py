@@ -68,9 +68,8 @@ def main() -> None:
               f"the arm's own tip {rows[-1]['own_tip_median_cm']} cm (median of {len(tip)} arms)")
     command = " ".join(["python benchmarks/goal_extremities.py", *(shlex.quote(a) for a in sys.argv[1:])])
     write_result(args.out, command, seeds, started, rows,
-                 notes="keyframe 0 of every demo, both arms; horizontal distances in cm in the arm's frame; "
-                       "projection_s_per_keyframe: the whole projection of one keyframe (segmentation, goal points, "
-                       "box and extremities for both arms), median")
+                 notes="keyframe 0 of every demo, both arms; horizontal distances in cm in the arm's frame "
+                       "(within_2cm: the share of arms)")
     print(f"wrote {args.out}")
 
 
