@@ -284,3 +284,26 @@ def test_an_action_space_residual_trains_and_acts(demo_root: Path, tiny_prior: P
     finally:
         env.close()
     assert record.keyframes == 1
+
+
+def test_residual_training_follows_the_learning_rate_schedule(demo_root: Path, tiny_prior: Path,
+                                                              tmp_path: Path) -> None:
+    """--schedule reaches the residual's optimiser: a cosine schedule with warm-up trains other weights than a
+    constant rate, and its state resumes to the uninterrupted run's."""
+    from safetensors.torch import load_file
+
+    def cfg(out: str, steps: int, schedule: str) -> TrainConfig:
+        return config_from_flat(TrainConfig, prior=str(tiny_prior), data=str(demo_root / "bimanual"),
+                                validation_data=str(demo_root / "bimanual"), out=str(tmp_path / out), steps=steps,
+                                checkpoint_every=2, demos=2, schedule=schedule, warmup_steps=3, lr=5e-2)
+
+    prior = UnimanualPrior.from_pretrained(tiny_prior)
+    for name, schedule in (("constant", "constant"), ("cosine", "cosine")):
+        train_residual(cfg(name, 4, schedule), prior=prior)
+    train_residual(cfg("resumed", 2, "cosine"), prior=prior)
+    train_residual(cfg("resumed", 4, "cosine"), prior=prior)
+    weights = {name: load_file(str(latest_checkpoint(tmp_path / name) / "model.safetensors"))
+               for name in ("constant", "cosine", "resumed")}
+    assert any(not torch.equal(v, weights["cosine"][k]) for k, v in weights["constant"].items())
+    for key, value in weights["cosine"].items():
+        assert torch.equal(value, weights["resumed"][key]), key

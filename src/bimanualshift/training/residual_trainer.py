@@ -41,7 +41,7 @@ from bimanualshift.training.augment import (
 from bimanualshift.training.checkpoint import latest_checkpoint
 from bimanualshift.training.configs import ARM_ORDER, TrainConfig
 from bimanualshift.training.loop import run_training
-from bimanualshift.training.optim import make_optimizer
+from bimanualshift.training.optim import lr_factor, make_optimizer
 from bimanualshift.utils.config_files import load_safetensors, read_json_file
 from bimanualshift.utils.io import atomic_write_json
 
@@ -446,7 +446,8 @@ def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Pat
                       memory)
 
     result = run_training(out, residual, optimizer, optim.steps, step_fn, optim.seed, optim.checkpoint_every,
-                          validate, on_best, desc="train residual", patience=optim.patience)
+                          validate, on_best, desc="train residual", patience=optim.patience,
+                          lr_factor=lambda step: lr_factor(optim.schedule, step, optim.steps, optim.warmup_steps))
     if (out / "best" / "model.safetensors").is_file():  # report on the checkpoint the run hands on
         residual.load_state_dict(load_safetensors(out / "best" / "model.safetensors"))
     gate = {}
