@@ -148,6 +148,10 @@ register_method(_residual_method(
     "this arm's end first) beside its box (compare with no_refinement on validation seeds)", refine=False,
     retrieval=True, goal_extremities=True))
 register_method(_residual_method(
+    "extremities_cosine", "variant: goal_extremities trained with a cosine learning-rate decay instead of a constant "
+    "rate (compare with no_refinement on validation seeds)", refine=False, retrieval=True, goal_extremities=True,
+    schedule="cosine"))
+register_method(_residual_method(
     "keyframe_gate", "variant: goal_extremities with the output gate's factors chosen per keyframe (compare with "
     "no_refinement and goal_extremities on validation seeds)", refine=False, retrieval=True, goal_extremities=True,
     gate_per_keyframe=True))
