@@ -307,3 +307,10 @@ def test_residual_training_follows_the_learning_rate_schedule(demo_root: Path, t
     assert any(not torch.equal(v, weights["cosine"][k]) for k, v in weights["constant"].items())
     for key, value in weights["cosine"].items():
         assert torch.equal(value, weights["resumed"][key]), key
+    # the summary breaks the validation error down by keyframe (from the Manager rows' phase one-hot)
+    report = json.loads((tmp_path / "cosine" / "summary.json").read_text())["validation_translation_error"]
+    per = report["per_keyframe"]
+    assert per["keyframes"] == sorted(per["keyframes"]) and per["keyframes"][0] == 0
+    for name in ("prior", "prior_plus_residual"):
+        assert len(per[f"{name}_median_m"]) == len(per["keyframes"])
+        assert min(per[f"{name}_median_m"]) <= report[f"{name}_median_m"] <= max(per[f"{name}_median_m"])

@@ -11,6 +11,7 @@ import json
 import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import torch
@@ -26,7 +27,13 @@ from bimanualshift.methods.bimanualshift import MEMORY_FILE, save_residual
 from bimanualshift.methods.prior_step import FrozenPriorStep
 from bimanualshift.perception.arm_samples import ArmSamples, build_arm_samples
 from bimanualshift.priors.base import PriorOutput, UnimanualPrior
-from bimanualshift.residual.manager import ResidualConfig, ResidualPolicy, action_lattice, manager_input_rows
+from bimanualshift.residual.manager import (
+    ResidualConfig,
+    ResidualPolicy,
+    action_lattice,
+    keyframe_slots,
+    manager_input_rows,
+)
 from bimanualshift.residual.output_gate import choose_output_scale, reset_output_scale
 from bimanualshift.residual.skills import SkillBasis
 from bimanualshift.training.augment import (
@@ -316,7 +323,7 @@ def bc_loss(out: dict[str, torch.Tensor], data: ResidualData, weights: LossWeigh
     return {**losses, "total": total}
 
 
-def translation_report(residual: ResidualPolicy, data: ResidualData) -> dict[str, float]:
+def translation_report(residual: ResidualPolicy, data: ResidualData) -> dict[str, Any]:
     """How far the prior alone and prior + residual land from the expert's position (validation data)."""
     with torch.no_grad():
         out = residual(data.inputs)
@@ -326,10 +333,16 @@ def translation_report(residual: ResidualPolicy, data: ResidualData) -> dict[str
             corrected = data.translation - cells[chosen]
         else:
             corrected = data.translation - out["translation"]
-    report = {}
-    for name, err in (("prior", data.translation.norm(dim=-1)), ("prior_plus_residual", corrected.norm(dim=-1))):
+    report: dict[str, Any] = {}
+    errors = (("prior", data.translation.norm(dim=-1)), ("prior_plus_residual", corrected.norm(dim=-1)))
+    for name, err in errors:
         report[f"{name}_median_m"] = round(float(err.median()), 4)
         report[f"{name}_within_2cm"] = round(float((err < 0.02).float().mean()), 4)
+    if residual.config.phase_dim:  # where along the task the residual helps or hurts (median per keyframe slot)
+        slots = keyframe_slots(residual.config, data.inputs)
+        seen = sorted({int(s) for s in slots})
+        report["per_keyframe"] = {"keyframes": seen, **{f"{name}_median_m": [
+            round(float(err[slots == s].median()), 4) for s in seen] for name, err in errors}}
     return report
 
 
