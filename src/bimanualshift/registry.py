@@ -148,9 +148,10 @@ register_method(_residual_method(
     "this arm's end first) beside its box (compare with no_refinement on validation seeds)", refine=False,
     retrieval=True, goal_extremities=True))
 register_method(_residual_method(
-    "extremities_cosine", "variant: goal_extremities trained with a cosine learning-rate decay instead of a constant "
-    "rate (compare with no_refinement on validation seeds)", refine=False, retrieval=True, goal_extremities=True,
-    schedule="cosine"))
+    "balanced_residual", "variant: goal_extremities trained with the pose terms balanced (beta 0.01: 0.1 rad weighs "
+    "as 1 cm), a cosine learning-rate decay and the best checkpoint picked by the gate's clipped errors (compare "
+    "with no_refinement on validation seeds)", refine=False, retrieval=True, goal_extremities=True,
+    schedule="cosine", beta=0.01, select_by="clipped_error"))
 register_method(_residual_method(
     "keyframe_gate", "variant: goal_extremities with the output gate's factors chosen per keyframe (compare with "
     "no_refinement and goal_extremities on validation seeds)", refine=False, retrieval=True, goal_extremities=True,

@@ -160,7 +160,12 @@ class TrainConfig:
     # Continual learning: an earlier BimanualShift run (or its checkpoint) whose Manager, Z and G start this run
     # and whose memory bank entries join this task's, so earlier tasks stay retrievable.
     init_from: str = ""
-    beta: float = 1.0  # weight of the rotation term in L_BC (Eq. 12)
+    beta: float = 1.0  # weight of the rotation term in L_BC (Eq. 12): rad^2 against m^2
+    # What picks the best checkpoint on the validation demos: "pose_loss", L_BC's pose part (translation + beta *
+    # rotation, squared), or "clipped_error", the output gate's measure: mean translation error clipped at 5 cm
+    # over 5 cm plus mean rotation error clipped at 20 degrees over 20 degrees (each in [0, 1]; with beta = 1 the
+    # squared rotation outweighs a centimetre's translation a hundredfold).
+    select_by: str = "pose_loss"
     gripper_weight: float = 0.01  # weight of the gripper logit's cross-entropy in L_BC (not paper-literal)
     hold_weight: float = 0.01  # weight of the hold logit's cross-entropy in L_BC (not paper-literal)
     dataset: ResidualDataConfig = field(default_factory=ResidualDataConfig)
@@ -181,7 +186,7 @@ class RefineConfig:
     steps: int = 500
     batch_size: int = 4
     lr: float = 5e-4
-    beta: float = 1.0
+    beta: float = 0.0  # the rotation term's weight in L_BC and L_corr; 0: the one the checkpoint was trained with
     gripper_weight: float = 0.01  # as in `train`: the gripper's and the hold's cross-entropy weights
     hold_weight: float = 0.01
     checkpoint_every: int = 100

@@ -237,7 +237,8 @@ def refine(cfg: RefineConfig, text_encoder: TextEncoder | None = None) -> Path:
         raise ValueError(f"{checkpoint}/config.json has no train_config; re-train it with this version of "
                          "`bimanualshift train` so refinement can find its demos")
     # the demos it was trained on (a flat train_config of an older checkpoint reads too)
-    train_cfg = config_from_dict(TrainConfig, meta["train_config"], checkpoint / "config.json").dataset
+    trained = config_from_dict(TrainConfig, meta["train_config"], checkpoint / "config.json")
+    train_cfg = trained.dataset
     policy = load_bimanualshift(checkpoint, text_encoder)
     task = meta["task"]
 
@@ -267,7 +268,8 @@ def refine(cfg: RefineConfig, text_encoder: TextEncoder | None = None) -> Path:
     optimizer = make_lamb(residual.parameters(), lr=cfg.lr)
     lambda_corr = cfg.lambda_corr if corrections is not None else 0.0
 
-    weights = LossWeights(cfg.beta, cfg.gripper_weight, cfg.hold_weight)
+    # the rotation weight and the checkpoint measure the residual was trained with, unless the refinement sets beta
+    weights = LossWeights(cfg.beta or trained.beta, cfg.gripper_weight, cfg.hold_weight)
 
     def step_fn(step: int, gen: torch.Generator) -> dict[str, torch.Tensor]:
         batch = train.rows(torch.randint(len(train.inputs), (cfg.batch_size,), generator=gen))
@@ -281,7 +283,7 @@ def refine(cfg: RefineConfig, text_encoder: TextEncoder | None = None) -> Path:
         return {**losses, "correction": corr, "total": losses["total"] + lambda_corr * corr}
 
     def validate(step: int) -> dict[str, float]:
-        return validation_losses(residual, val, weights)
+        return validation_losses(residual, val, weights, trained.select_by)
 
     refine_meta = {**{k: v for k, v in meta.items() if k not in ("type", "residual")},
                    "refined_from": str(checkpoint), "refine_config": asdict(cfg)}

@@ -34,7 +34,13 @@ from bimanualshift.residual.manager import (
     keyframe_slots,
     manager_input_rows,
 )
-from bimanualshift.residual.output_gate import choose_output_scale, reset_output_scale
+from bimanualshift.residual.output_gate import (
+    ROTATION_CLIP_RAD,
+    TRANSLATION_CLIP_M,
+    choose_output_scale,
+    clipped_error,
+    reset_output_scale,
+)
 from bimanualshift.residual.skills import SkillBasis
 from bimanualshift.training.augment import (
     Se3Augmentation,
@@ -282,14 +288,27 @@ class LossWeights:
     hold: float = 0.01
 
 
+SELECT_BY = ("pose_loss", "clipped_error")
+
+
 @torch.no_grad()
-def validation_losses(residual: ResidualPolicy, data: ResidualData, weights: LossWeights) -> dict[str, float]:
-    """What picks a residual checkpoint: the pose part of L_BC (translation + beta * rotation, Eq. 12 as
-    written), so the coordination outputs' cross-entropies, an order of magnitude larger, cannot choose an
-    undertrained pose residual; they are logged beside it, with each coordination output's validation accuracy."""
+def validation_losses(residual: ResidualPolicy, data: ResidualData, weights: LossWeights,
+                      select_by: str = "pose_loss") -> dict[str, float]:
+    """What picks a residual checkpoint (``value``): the pose part of L_BC (translation + beta * rotation, Eq. 12
+    as written) or, with ``select_by="clipped_error"``, the output gate's clipped errors over their clips
+    (``TrainConfig.select_by``); never the coordination outputs' cross-entropies, an order of magnitude larger,
+    which could choose an undertrained pose residual: they are logged beside it, with each coordination output's
+    validation accuracy. An action-space residual has no continuous move to clip: it is picked by its pose loss."""
+    if select_by not in SELECT_BY:
+        raise ValueError(f"select_by must be one of {SELECT_BY}, got {select_by!r}")
     out = residual(data.inputs)
     losses = bc_loss(out, data, weights)
     report = {"value": float(losses["translation"] + weights.beta * losses["rotation"])}
+    if select_by == "clipped_error" and "translation_logits" not in out:
+        report["pose_loss"] = report["value"]
+        report["value"] = (clipped_error(data.translation, out["translation"], 1.0, TRANSLATION_CLIP_M)
+                           / TRANSLATION_CLIP_M
+                           + clipped_error(data.rotation, out["rotation"], 1.0, ROTATION_CLIP_RAD) / ROTATION_CLIP_RAD)
     for name, logit, target in (("gripper", "gripper_logit", data.gripper), ("hold", "hold_logit", data.hold)):
         if logit in out and target is not None:
             report[f"{name}_bce"] = round(float(losses[name]), 5)
@@ -395,6 +414,8 @@ def changed_settings(cfg: TrainConfig) -> list[str]:
 def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Path:
     started = time.time()
     out = Path(cfg.out)
+    if cfg.select_by not in SELECT_BY:
+        raise ValueError(f"--select-by must be one of {SELECT_BY}, got {cfg.select_by!r}")
     changed = changed_settings(cfg)
     if changed:
         raise ValueError(f"{out} holds a residual run trained with other settings ({', '.join(changed)}); resuming "
@@ -452,7 +473,7 @@ def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Pat
         return bc_loss(residual(batch.inputs), batch, weights)
 
     def validate(step: int) -> dict[str, float]:
-        return validation_losses(residual, val, weights)
+        return validation_losses(residual, val, weights, cfg.select_by)
 
     def on_best(step: int, value: float, elapsed_s: float) -> None:
         save_residual(out / "best", residual, {**checkpoint_meta, "trained_steps": step, "validation_loss": value},
