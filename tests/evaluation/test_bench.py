@@ -81,6 +81,11 @@ def test_bench_runs_resumes_and_reports(demo_root: Path, tmp_path: Path) -> None
     refined = json.loads(summary.read_text())["refinement"]
     assert set(refined) == {"push_two_buttons/bimanualshift"} and refined["push_two_buttons/bimanualshift"][
         "scenes"] == 1
+    # the residual's training run is summarised beside the table: its checkpoint and validation errors
+    trained = json.loads(summary.read_text())["training"]
+    assert set(trained) == {"push_two_buttons/bimanualshift"}  # no_residual trains nothing
+    assert trained["push_two_buttons/bimanualshift"]["best"]["step"] in (0, 2)
+    assert "prior_median_m" in trained["push_two_buttons/bimanualshift"]["validation_translation_error"]
     log = tmp_path / "out" / "episodes.jsonl"
     first = read_episodes(log)
     # every episode's keyframes are logged beside it: executed and expert actions, and the policy's own log

@@ -162,6 +162,24 @@ def refinement_records(cfg: BenchConfig, tasks: list[str]) -> dict[str, dict[str
     return out
 
 
+TRAINING_FIELDS = ("best", "stopped_early_at", "validation_translation_error", "output_gate")
+
+
+def training_records(cfg: BenchConfig, tasks: list[str]) -> dict[str, dict[str, Any]]:
+    """Per "task/method" trained by the residual trainer: the checkpoint it handed on (step, validation value),
+    its validation translation error (prior alone and with the residual, overall and per keyframe) and the
+    output gate's factors (from the run's summary.json; runs/ is not committed, this keeps them with the table)."""
+    out = {}
+    for task in tasks:
+        for method in cfg.methods:
+            path = Path(cfg.runs) / task / get_method(method).run_name / "summary.json"
+            if path.is_file():
+                summary = json.loads(path.read_text())
+                if "validation_translation_error" in summary:
+                    out[f"{task}/{method}"] = {k: summary.get(k) for k in TRAINING_FIELDS}
+    return out
+
+
 def run_bench_episode(job: BenchJob) -> dict[str, Any]:
     """One test episode in a worker (environments and loaded policies are cached per process)."""
     import torch
@@ -352,7 +370,7 @@ def run_bench(cfg: BenchConfig, command: str | None = None) -> Path:
     recorded = seeds if cfg.evaluate_on == "test" else {
         "train": seeds["train"], "validation": seeds["validation"], "validation_rollouts": seeds["test"]}
     write_result(out / "summary.json", command, recorded, started, rows, bench=True, config=asdict(cfg),
-                 refinement=refinement_records(cfg, tasks),
+                 refinement=refinement_records(cfg, tasks), training=training_records(cfg, tasks),
                  methods={m: METHODS[m].description for m in cfg.methods},
                  notes=f"prior {cfg.prior}; episodes stop at {KEYFRAME_BUDGET}x the expert's keyframes on the "
                        "same seed; wall time covers this invocation only (a resumed run reuses earlier work)")
