@@ -66,3 +66,15 @@ def test_a_flat_config_of_an_older_run_reads_as_the_nested_one() -> None:
     assert pretrain.network.model == {"dim": 64} and pretrain.network.prior == "dp" and pretrain.optim.steps == 5
     with pytest.raises(CheckpointError, match=r"old.json \(optim\): field 'steps' is 'many'"):
         config_from_dict(TrainConfig, {**flat, "steps": "many"}, "old.json")
+
+
+def test_a_flat_key_keeps_the_parents_defaults_for_the_rest_of_its_group() -> None:
+    from bimanualshift.training.configs import PretrainConfig, TrainConfig
+    from bimanualshift.utils.config_files import config_from_flat
+
+    # naming one optimiser field must not reset the others to OptimConfig's generic defaults
+    residual = config_from_flat(TrainConfig, task="lift_ball", steps=7)
+    assert residual.optim.steps == 7
+    assert (residual.optim.lr, residual.optim.schedule) == (TrainConfig().optim.lr, TrainConfig().optim.schedule)
+    pretrain = config_from_flat(PretrainConfig, lr=3e-4)
+    assert pretrain.optim.lr == 3e-4 and pretrain.optim.steps == PretrainConfig().optim.steps

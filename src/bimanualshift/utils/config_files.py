@@ -57,6 +57,16 @@ def _nested(cls: type) -> dict[str, type]:
     return {f.name: hints[f.name] for f in dataclasses.fields(cls) if dataclasses.is_dataclass(hints[f.name])}
 
 
+def _group_default(cls: type, name: str) -> Any:
+    """The default value of ``cls``'s nested group ``name`` (its default_factory's, or the group class's own)."""
+    spec = next(f for f in dataclasses.fields(cls) if f.name == name)
+    if spec.default_factory is not dataclasses.MISSING:
+        return spec.default_factory()
+    if spec.default is not dataclasses.MISSING:
+        return spec.default
+    return typing.get_type_hints(cls)[name]()
+
+
 def route_flat_keys(cls: type, raw: dict[str, Any]) -> dict[str, Any]:
     """``raw`` with every key that names a field of exactly one nested group moved into that group: a flat
     config (an older run's, or keyword arguments) read as the nested one."""
@@ -94,7 +104,11 @@ def config_from_dict(cls: type, raw: dict[str, Any], source: str | Path, ignore_
     for key in names & set(raw):
         value = raw[key]
         if key in groups and isinstance(value, dict):
-            values[key] = config_from_dict(groups[key], value, f"{source} ({key})", ignore_unknown)
+            given = config_from_dict(groups[key], value, f"{source} ({key})", ignore_unknown)
+            # the group's unnamed fields keep the parent's default for it (e.g. the residual's own optimiser
+            # settings), not the group class's generic ones
+            values[key] = dataclasses.replace(_group_default(cls, key), **{
+                f.name: getattr(given, f.name) for f in dataclasses.fields(given) if f.name in value})
             continue
         if not _accepts(hints[key], value):
             expected = getattr(hints[key], "__name__", str(hints[key]))
