@@ -79,9 +79,11 @@ def test_residual_training_resumes_keeps_prior_frozen_and_evaluates(demo_root: P
     prior_before = load_file(str(tiny_prior / "model.safetensors"))
 
     def cfg(out: Path, steps: int) -> TrainConfig:
+        # a constant rate: a cosine one is planned over --steps, so a run extended from 2 to 4 steps decays
+        # differently from one asked for 4 (the schedule's own resume is tested with a warm-up below)
         return config_from_flat(TrainConfig, prior=str(tiny_prior), data=str(demo_root / "bimanual"),
                            validation_data=str(demo_root / "bimanual"), out=str(out), steps=steps,
-                           checkpoint_every=2, demos=2)
+                           checkpoint_every=2, demos=2, schedule="constant")
 
     prior = UnimanualPrior.from_pretrained(tiny_prior)
     prior_state = {k: v.clone() for k, v in prior.state_dict().items()}
@@ -289,7 +291,8 @@ def test_an_action_space_residual_trains_and_acts(demo_root: Path, tiny_prior: P
 def test_residual_training_follows_the_learning_rate_schedule(demo_root: Path, tiny_prior: Path,
                                                               tmp_path: Path) -> None:
     """--schedule reaches the residual's optimiser: a cosine schedule with warm-up trains other weights than a
-    constant rate, and its state resumes to the uninterrupted run's."""
+    constant rate, and its state resumes to the uninterrupted run's (within the 3 warm-up steps the rate does not
+    depend on the run's length, so a run extended from 2 to 4 steps matches one asked for 4)."""
     from safetensors.torch import load_file
 
     def cfg(out: str, steps: int, schedule: str) -> TrainConfig:
