@@ -48,16 +48,15 @@ def choose_output_scale(residual: ResidualPolicy, inputs: torch.Tensor, translat
         chosen[f"{name}_scale"] = best
         chosen[f"{name}_clipped_error"] = round(costs[best], 5)
         chosen[f"{name}_clipped_error_prior"] = round(costs[0.0], 5)
+    residual.output_scale.copy_(torch.tensor(overall).expand_as(residual.output_scale))  # every slot, or one row
     if not residual.config.gate_per_keyframe:
-        residual.output_scale.copy_(torch.tensor(overall))
         return chosen
     slots = keyframe_slots(residual.config, inputs)
-    residual.output_scale.copy_(torch.tensor(overall).expand_as(residual.output_scale))
-    for slot in {int(s) for s in slots}:
+    seen = sorted({int(s) for s in slots})
+    for slot in seen:
         rows = slots == slot
         for i, (name, target, clip) in enumerate(parts):
             residual.output_scale[slot, i] = best_scale(target[rows], out[name][rows], clip)[0]
-    seen = sorted({int(s) for s in slots})
     per_keyframe: dict[str, Any] = {"keyframes": seen}
     for i, (name, target, clip) in enumerate(parts):
         per_keyframe[f"{name}_scale"] = [float(residual.output_scale[s, i]) for s in seen]
@@ -65,6 +64,14 @@ def choose_output_scale(residual: ResidualPolicy, inputs: torch.Tensor, translat
         per_keyframe[f"{name}_clipped_error"] = round(clipped_error(target, scaled, 1.0, clip), 5)
     chosen["per_keyframe"] = per_keyframe
     return chosen
+
+
+def clipped_pose_error(out: dict[str, torch.Tensor], translation: torch.Tensor, rotation: torch.Tensor) -> float:
+    """The gate's measure of a residual's whole output (factor 1): the mean translation error clipped at
+    ``TRANSLATION_CLIP_M`` over that clip plus the mean rotation error clipped at ``ROTATION_CLIP_RAD`` over that
+    clip, each in [0, 1] (what ``select_by="clipped_error"`` picks a checkpoint by)."""
+    return (clipped_error(translation, out["translation"], 1.0, TRANSLATION_CLIP_M) / TRANSLATION_CLIP_M
+            + clipped_error(rotation, out["rotation"], 1.0, ROTATION_CLIP_RAD) / ROTATION_CLIP_RAD)
 
 
 def best_scale(target: torch.Tensor, prediction: torch.Tensor, clip: float) -> tuple[float, dict[float, float]]:

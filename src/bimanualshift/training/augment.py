@@ -16,6 +16,7 @@ import torch
 import torch.nn.functional as F
 
 from bimanualshift.geometry.voxels import VoxelGrid
+from bimanualshift.perception.goal_geometry import BOX_GEOMETRY_DIM, EXTREMITY_DIM
 
 
 def shift_voxels(voxels: torch.Tensor, shift: tuple[int, int, int]) -> torch.Tensor:
@@ -146,9 +147,9 @@ def transform_goal_geometry(goal: torch.Tensor, grid: VoxelGrid, yaw: torch.Tens
     corners = torch.where(pick[None], high[:, None], low[:, None])  # (B, 8, 3)
     moved = transform_points(corners, grid, yaw, translation)
     out[:, 3:6], out[:, 6:9] = moved.min(1).values, moved.max(1).values
-    if goal.shape[1] > 10:
+    if goal.shape[1] > BOX_GEOMETRY_DIM:
         turn = yaw_matrix(yaw).to(goal.dtype)
-        for start in (10, 16):  # each end: tip (a point), direction (turned only)
+        for start in (BOX_GEOMETRY_DIM, BOX_GEOMETRY_DIM + EXTREMITY_DIM // 2):  # each end: tip (a point), direction
             out[:, start:start + 3] = transform_points(goal[:, start:start + 3], grid, yaw, translation)
             out[:, start + 3:start + 6] = torch.einsum("bij,bj->bi", turn, goal[:, start + 3:start + 6])
     return torch.where(seen[:, None], out, goal)

@@ -34,13 +34,7 @@ from bimanualshift.residual.manager import (
     keyframe_slots,
     manager_input_rows,
 )
-from bimanualshift.residual.output_gate import (
-    ROTATION_CLIP_RAD,
-    TRANSLATION_CLIP_M,
-    choose_output_scale,
-    clipped_error,
-    reset_output_scale,
-)
+from bimanualshift.residual.output_gate import choose_output_scale, clipped_pose_error, reset_output_scale
 from bimanualshift.residual.skills import SkillBasis
 from bimanualshift.training.augment import (
     Se3Augmentation,
@@ -306,9 +300,7 @@ def validation_losses(residual: ResidualPolicy, data: ResidualData, weights: Los
     report = {"value": float(losses["translation"] + weights.beta * losses["rotation"])}
     if select_by == "clipped_error" and "translation_logits" not in out:
         report["pose_loss"] = report["value"]
-        report["value"] = (clipped_error(data.translation, out["translation"], 1.0, TRANSLATION_CLIP_M)
-                           / TRANSLATION_CLIP_M
-                           + clipped_error(data.rotation, out["rotation"], 1.0, ROTATION_CLIP_RAD) / ROTATION_CLIP_RAD)
+        report["value"] = clipped_pose_error(out, data.translation, data.rotation)
     for name, logit, target in (("gripper", "gripper_logit", data.gripper), ("hold", "hold_logit", data.hold)):
         if logit in out and target is not None:
             report[f"{name}_bce"] = round(float(losses[name]), 5)
