@@ -157,6 +157,11 @@ register_method(_residual_method(
     "with no_refinement on validation seeds)", refine=False, retrieval=True, goal_extremities=True,
     schedule="cosine", beta=0.01, select_by="clipped_error"))
 register_method(_residual_method(
+    "gripper_down_quaternions", "variant: balanced_residual with every quaternion the Manager reads on the "
+    "gripper-down pose's side instead of w >= 0, whose sign flips at random near that pose (compare with "
+    "balanced_residual on validation seeds)", refine=False, retrieval=True, goal_extremities=True,
+    schedule="cosine", beta=0.01, select_by="clipped_error", quaternion_sign="gripper_down"))
+register_method(_residual_method(
     "keyframe_gate", "variant: goal_extremities with the output gate's factors chosen per keyframe (compare with "
     "no_refinement and goal_extremities on validation seeds)", refine=False, retrieval=True, goal_extremities=True,
     gate_per_keyframe=True, **EARLIER_TRAINING))

@@ -108,3 +108,20 @@ def test_a_half_turn_about_the_approach_axis_is_the_same_grasp() -> None:
     assert np.isclose(gripper_angle_deg(down.as_quat(), turned), 10.0, atol=1e-6)
     tilted = (Rotation.from_euler("x", np.radians(30)) * down).as_quat()  # a tilt is not forgiven
     assert np.isclose(gripper_angle_deg(down.as_quat(), tilted), 30.0, atol=1e-6)
+
+
+def test_quat_toward_keeps_near_gripper_down_poses_on_one_side_and_the_rotation_unchanged() -> None:
+    import torch
+
+    from bimanualshift.geometry.frames import GRIPPER_DOWN_QUAT, canonical_quat, quat_toward
+    from bimanualshift.geometry.torch_rotations import quat_toward as quat_toward_torch
+
+    # two poses a degree apart on either side of the gripper-down pose: w >= 0 gives them opposite signs
+    tilt = [Rotation.from_quat(GRIPPER_DOWN_QUAT) * Rotation.from_euler("x", a, degrees=True) for a in (-1, 1)]
+    w_positive = canonical_quat(np.stack([r.as_quat() for r in tilt]))
+    assert np.sign(w_positive[0, 0]) != np.sign(w_positive[1, 0])
+    toward = quat_toward(w_positive)
+    assert (toward[:, 0] > 0).all() and np.linalg.norm(toward[0] - toward[1]) < 0.05
+    for q, r in zip(toward, tilt):
+        assert Rotation.from_quat(q).approx_equal(r, atol=1e-9)
+    np.testing.assert_allclose(quat_toward_torch(torch.as_tensor(w_positive)).numpy(), toward)

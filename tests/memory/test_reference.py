@@ -80,3 +80,17 @@ def test_progress_alignment_follows_the_arm_not_the_keyframe_index() -> None:
     assert [align.step_of(0, p, g) for p, g in poses] == [0, 1, 1, 2, 3]
     # the holding arm replays its repeated targets one per keyframe, never skipping ahead
     assert [align.step_of(1, np.array([0.4, 0.0, 0.3]), 1.0) for _ in range(5)] == [0, 1, 2, 3, 3]
+
+
+def test_the_reference_gives_a_rollouts_quaternion_on_the_demos_side() -> None:
+    """A rollout stores its executed quaternion with w >= 0, which near the gripper-down pose (the demos' x = +1
+    side) may come out negated: the reference gives the same rotation on the demos' side."""
+    bank = MemoryBank(12, threshold=0.5)
+    stored = np.zeros((1, 2, 8))
+    stored[0, :, 3:7] = [-0.999, -0.01, 0.0, 0.04]  # the gripper-down pose, negated by w >= 0
+    stored[0, :, 7] = 1.0
+    key = episode_key(np.ones(4), [np.ones(4), np.ones(4)])
+    bank.add(key, stored, MemoryEntry("t", "i", "refinement", 0))
+    ref = reference_vector(bank.search(key), 0, 0, np.zeros(8))
+    np.testing.assert_allclose(ref[3:7], [0.999, 0.01, 0.0, -0.04], atol=1e-6)
+    assert ref[7] == 1.0

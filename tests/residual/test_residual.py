@@ -151,3 +151,39 @@ def test_a_residual_trained_on_the_goal_box_reads_the_box_of_a_wider_goal_row() 
     with pytest.raises(ValueError, match="got 9 columns"):  # narrower than the residual reads: a wrong prior step
         manager_input_rows(ResidualConfig(feature_dim=5, text_dim=8, goal_dim=BOX_GEOMETRY_DIM), *parts,
                            torch.tensor([0, 1]), torch.tensor([0, 3]), goal=goal[:, :9])
+
+
+def test_gripper_down_quaternion_sign_gives_the_manager_one_row_for_q_and_minus_q() -> None:
+    from bimanualshift.memory.reference import REFERENCE_DIM
+    from bimanualshift.residual.manager import manager_input_rows
+
+    g = torch.Generator().manual_seed(0)
+    features, proprio, other, text, base = (torch.rand(2, w, generator=g) for w in (5, 9, 8, 8, 8))
+    reference = torch.rand(2, REFERENCE_DIM, generator=g)
+    for part in (proprio, other, base, reference):
+        part[:, 3:7] = torch.tensor([0.999, 0.01, 0.0, 0.04])  # near the gripper-down pose, w > 0
+
+    def negated(part: torch.Tensor) -> torch.Tensor:
+        out = part.clone()
+        out[:, 3:7] = -out[:, 3:7]
+        return out
+
+    arm, keyframe = torch.tensor([0, 1]), torch.tensor([0, 3])
+    for sign, same in (("gripper_down", True), ("w_positive", False)):
+        cfg = ResidualConfig(feature_dim=5, text_dim=8, reference_dim=REFERENCE_DIM, quaternion_sign=sign)
+        rows = manager_input_rows(cfg, features, proprio, other, text, base, arm, keyframe, reference=reference)
+        flipped = manager_input_rows(cfg, features, negated(proprio), negated(other), text, negated(base), arm,
+                                     keyframe, reference=negated(reference))
+        assert torch.equal(rows, flipped) == same
+    with pytest.raises(ValueError, match="quaternion_sign is one of"):
+        ResidualConfig(quaternion_sign="xyz")
+    from bimanualshift.training.configs import ResidualModelConfig
+
+    assert ResidualModelConfig(quaternion_sign="gripper_down").residual_config(5, 8).quaternion_sign == "gripper_down"
+
+
+def test_a_residual_config_from_before_the_quaternion_sign_reads_w_positive() -> None:
+    from bimanualshift.utils.config_files import config_from_dict
+
+    old = {k: v for k, v in ResidualConfig(feature_dim=5, text_dim=8).__dict__.items() if k != "quaternion_sign"}
+    assert config_from_dict(ResidualConfig, old, "old residual", ignore_unknown=False).quaternion_sign == "w_positive"

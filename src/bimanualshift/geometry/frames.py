@@ -62,6 +62,18 @@ def canonical_quat(quat: np.ndarray) -> np.ndarray:
     return np.where(q[..., 3:4] < 0, -q, q)
 
 
+# The gripper pointing straight down in an arm's frame (x y z w): a half turn about x, where w is 0. The benchmark's
+# keyframes lie within a quarter turn of it, so the w >= 0 sign flips at random there (half the demos' poses).
+GRIPPER_DOWN_QUAT = np.array([1.0, 0.0, 0.0, 0.0])
+
+
+def quat_toward(quat: np.ndarray, pole: np.ndarray = GRIPPER_DOWN_QUAT) -> np.ndarray:
+    """q or -q (each row of ``quat``), whichever lies on ``pole``'s side (dot >= 0): a sign that changes only half
+    a turn away from ``pole``, where w >= 0 changes wherever w crosses 0."""
+    q = np.asarray(quat, dtype=np.float64)
+    return np.where((q @ np.asarray(pole, np.float64))[..., None] < 0, -q, q)
+
+
 def rotation_angle(a: np.ndarray, b: np.ndarray) -> float:
     """The angle (rad) of the rotation between two unit quaternions (components in the same order in both)."""
     w = abs(float(np.dot(a, b)))

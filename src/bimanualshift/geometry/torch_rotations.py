@@ -44,3 +44,10 @@ def rotation_6d_to_matrix(d6: torch.Tensor) -> torch.Tensor:
     b2 = F.normalize(a2 - (b1 * a2).sum(-1, keepdim=True) * b1, dim=-1)
     b3 = torch.cross(b1, b2, dim=-1)
     return torch.stack([b1, b2, b3], dim=-1)
+
+
+def quat_toward(quat: torch.Tensor, pole: tuple[float, float, float, float] = (1.0, 0.0, 0.0, 0.0)) -> torch.Tensor:
+    """(..., 4) q or -q, whichever lies on ``pole``'s side (x y z w; default the gripper pointing down, as
+    ``geometry.frames.GRIPPER_DOWN_QUAT``)."""
+    pole_t = torch.tensor(pole, dtype=quat.dtype, device=quat.device)
+    return torch.where((quat * pole_t).sum(-1, keepdim=True) < 0, -quat, quat)

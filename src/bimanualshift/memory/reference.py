@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from bimanualshift.geometry.frames import quat_toward
 from bimanualshift.memory.bank import Retrieval, memory_key
 
 REFERENCE_DIM = 3 + 4 + 1 + 1  # position offset from the prior's, quaternion, gripper, confidence
@@ -75,6 +76,9 @@ def reference_vector(retrieval: Retrieval | None, keyframe: int, arm: int, base_
         return out
     stored = retrieval.reference_at(keyframe)[arm]
     out[:3] = stored[:3] - np.asarray(base_action[:3])
-    out[3:8] = stored[3:8]
+    # a rollout stores its executed quaternion with w >= 0, whose sign flips at random near the gripper-down pose;
+    # the demos' are on the gripper-down side, so every reference is given on that side
+    out[3:7] = quat_toward(stored[3:7])
+    out[7] = stored[7]
     out[8] = retrieval.similarity
     return out

@@ -7,7 +7,10 @@ from dataclasses import dataclass
 import torch
 from torch import nn
 
+from bimanualshift.geometry.torch_rotations import quat_toward
 from bimanualshift.residual.skills import SkillBasis
+
+QUATERNION_SIGNS = ("w_positive", "gripper_down")
 
 
 @dataclass
@@ -53,6 +56,14 @@ class ResidualConfig:
     action_window: int = 9
     action_cell_m: float = 0.02
     rotation_bins: int = 0
+    # The sign of every quaternion the Manager reads (own and other arm's pose, the prior's action, the reference):
+    # "w_positive" as the environment gives it (checkpoints from before the choice), or "gripper_down": on the side
+    # of the gripper-down pose, where w is near 0 and the w >= 0 sign flips at random between similar poses.
+    quaternion_sign: str = "w_positive"
+
+    def __post_init__(self) -> None:
+        if self.quaternion_sign not in QUATERNION_SIGNS:
+            raise ValueError(f"quaternion_sign is one of {', '.join(QUATERNION_SIGNS)}, got {self.quaternion_sign!r}")
 
     @property
     def gate_slots(self) -> int:
@@ -231,10 +242,19 @@ def manager_input_rows(config: ResidualConfig, features: torch.Tensor, proprio: 
         if width and value.shape[-1] != width:
             raise ValueError(f"this residual reads a {width}-wide {name}, got {value.shape[-1]} columns: the "
                              "prior is not the one it was trained with")
+    if config.quaternion_sign == "gripper_down":
+        proprio, other_proprio, base_action = (_quaternion_toward_gripper_down(x)
+                                               for x in (proprio, other_proprio, base_action))
+        reference = None if reference is None else _quaternion_toward_gripper_down(reference)
     phase = phase_one_hot(keyframe, arm_index, config.phase_dim, config.num_arms) if config.phase_dim else None
     return manager_inputs(features, proprio, other_proprio, text, base_action, arm_index, config.num_arms,
                           reference if config.reference_dim else None, goal if config.goal_dim else None, phase,
                           proposal if config.proposal_dim else None)
+
+
+def _quaternion_toward_gripper_down(rows: torch.Tensor) -> torch.Tensor:
+    """``rows`` (..., >= 7: xyz, quaternion x y z w, ...) with each quaternion on the gripper-down side."""
+    return torch.cat([rows[..., :3], quat_toward(rows[..., 3:7]), rows[..., 7:]], dim=-1)
 
 
 def phase_one_hot(keyframe: torch.Tensor, arm_index: torch.Tensor, width: int, num_arms: int) -> torch.Tensor:

@@ -124,6 +124,9 @@ class ResidualModelConfig:
     action_space: bool = False
     action_window: int = 9
     action_cell_m: float = 0.02
+    # The sign of the quaternions the Manager reads: "gripper_down" keeps them on the gripper-down pose's side,
+    # "w_positive" as the environment gives them (w >= 0, which flips at random near the gripper-down pose).
+    quaternion_sign: str = "w_positive"
 
     def residual_config(self, feature_dim: int, text_dim: int, proposal_dim: int = 0,
                         rotation_bins: int = 0) -> ResidualConfig:
@@ -146,7 +149,8 @@ class ResidualModelConfig:
                               proposal_dim=proposal_dim if self.proposal_features else 0,
                               action_space=self.action_space, action_window=self.action_window,
                               action_cell_m=self.action_cell_m,
-                              rotation_bins=rotation_bins if self.action_space else 0)
+                              rotation_bins=rotation_bins if self.action_space else 0,
+                              quaternion_sign=self.quaternion_sign)
 
 
 @dataclass
