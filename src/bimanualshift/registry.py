@@ -130,9 +130,12 @@ def _frozen_prior_method(name: str, description: str, use_projection: bool, role
     return MethodSpec(name, description, lambda request: None, load, role=role)
 
 
-# How the residual trained before balanced_residual's settings became the default (docs/residual.md): the variants
-# measured then keep it, so their recorded rows stay reproducible.
-EARLIER_TRAINING: dict[str, Any] = {"schedule": "constant", "beta": 1.0, "select_by": "pose_loss"}
+# How the residual trained before balanced_residual's settings became the default (docs/residual.md), and how
+# its Manager read quaternions before gripper_down_quaternions: the variants measured then keep it, so their
+# recorded rows stay reproducible.
+EARLIER_QUATERNIONS: dict[str, Any] = {"quaternion_sign": "w_positive"}
+EARLIER_TRAINING: dict[str, Any] = {"schedule": "constant", "beta": 1.0, "select_by": "pose_loss",
+                                    **EARLIER_QUATERNIONS}
 
 register_method(_residual_method(
     "bimanualshift", "projection + residual skill modulation + retrieval, refined on training scenes (the full "
@@ -155,7 +158,7 @@ register_method(_residual_method(
     "balanced_residual", "variant: goal_extremities trained with the pose terms balanced (beta 0.01: 0.1 rad weighs "
     "as 1 cm), a cosine learning-rate decay and the best checkpoint picked by the gate's clipped errors (compare "
     "with no_refinement on validation seeds)", refine=False, retrieval=True, goal_extremities=True,
-    schedule="cosine", beta=0.01, select_by="clipped_error"))
+    schedule="cosine", beta=0.01, select_by="clipped_error", **EARLIER_QUATERNIONS))
 register_method(_residual_method(
     "gripper_down_quaternions", "variant: balanced_residual with every quaternion the Manager reads on the "
     "gripper-down pose's side instead of w >= 0, whose sign flips at random near that pose (compare with "

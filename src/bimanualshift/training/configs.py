@@ -125,8 +125,9 @@ class ResidualModelConfig:
     action_window: int = 9
     action_cell_m: float = 0.02
     # The sign of the quaternions the Manager reads: "gripper_down" keeps them on the gripper-down pose's side,
-    # "w_positive" as the environment gives them (w >= 0, which flips at random near the gripper-down pose).
-    quaternion_sign: str = "w_positive"
+    # "w_positive" as the environment gives them (w >= 0, which flips at random near the gripper-down pose; half
+    # the demos' poses). Chosen on validation seeds (docs/residual.md).
+    quaternion_sign: str = "gripper_down"
 
     def residual_config(self, feature_dim: int, text_dim: int, proposal_dim: int = 0,
                         rotation_bins: int = 0) -> ResidualConfig:
