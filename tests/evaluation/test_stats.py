@@ -14,3 +14,18 @@ def test_wilson_interval_rejects_bad_counts() -> None:
         wilson_interval(3, 0)
     with pytest.raises(ValueError):
         wilson_interval(4, 3)
+
+
+def test_paired_sign_test_counts_disagreements_and_matches_the_binomial_tail() -> None:
+    from scipy.stats import binomtest
+
+    from bimanualshift.evaluation.stats import paired_sign_test
+
+    a = [True] * 15 + [False] * 5 + [True] * 30 + [False] * 10
+    b = [False] * 15 + [True] * 5 + [True] * 30 + [False] * 10
+    result = paired_sign_test(a, b)
+    assert (result.pairs, result.a_wins, result.b_wins) == (60, 15, 5)
+    assert result.p_value == pytest.approx(binomtest(5, 20, 0.5).pvalue)
+    assert paired_sign_test([True, False], [True, False]).p_value == 1.0  # no disagreement: no evidence
+    with pytest.raises(ValueError, match="same count"):
+        paired_sign_test([True], [True, False])

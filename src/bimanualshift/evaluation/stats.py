@@ -1,4 +1,5 @@
-"""Success-rate statistics: Wilson score intervals at 95 %, and the success row every result file holds."""
+"""Success-rate statistics: Wilson score intervals at 95 %, the paired sign test of two methods on the same seeds,
+and the success row every result file holds."""
 
 from __future__ import annotations
 
@@ -18,6 +19,29 @@ def wilson_interval(successes: int, trials: int, z: float = 1.959964) -> tuple[f
     centre = (p + z * z / (2 * trials)) / denom
     half = z * math.sqrt(p * (1 - p) / trials + z * z / (4 * trials * trials)) / denom
     return max(0.0, centre - half), min(1.0, centre + half)
+
+
+@dataclass(frozen=True)
+class PairedComparison:
+    """Two methods rolled out on the same episodes: where they disagree, and how likely that split is if neither
+    is better (the exact two-sided sign test, McNemar's test for small counts)."""
+
+    pairs: int
+    a_wins: int  # episodes a solved and b did not
+    b_wins: int
+    p_value: float
+
+
+def paired_sign_test(a: Iterable[bool], b: Iterable[bool]) -> PairedComparison:
+    """Compare success flags of two methods episode by episode (``a[i]`` and ``b[i]`` are the same seed)."""
+    a, b = [bool(x) for x in a], [bool(x) for x in b]
+    if len(a) != len(b):
+        raise ValueError(f"paired episodes need the same count, got {len(a)} and {len(b)}")
+    a_wins = sum(x and not y for x, y in zip(a, b))
+    b_wins = sum(y and not x for x, y in zip(a, b))
+    n, k = a_wins + b_wins, min(a_wins, b_wins)
+    tail = sum(math.comb(n, i) for i in range(k + 1)) / 2 ** n if n else 0.5
+    return PairedComparison(len(a), a_wins, b_wins, min(1.0, 2 * tail))
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,73 @@
+"""Two methods of one bench folder compared episode by episode on the seeds both ran (writes a result file)
+
+    .venv/bin/python benchmarks/paired_comparison.py results/residual_space/gripper_down_quaternions \
+        --methods balanced_residual gripper_down_quaternions
+
+Both methods roll out the same seeds, so the episodes where they disagree carry the whole difference: per task and
+over all tasks, how many each one wins and the exact two-sided sign test's p (``evaluation.stats``). Reads the
+folder's ``episodes.jsonl``; nothing is rolled out.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import shlex
+import sys
+import time
+from pathlib import Path
+
+from bimanualshift.evaluation.report import write_result
+from bimanualshift.evaluation.stats import paired_sign_test
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("folder", help="a bench result folder holding episodes.jsonl")
+    parser.add_argument("--methods", nargs=2, required=True, metavar=("A", "B"))
+    parser.add_argument("--out", default="", help="result file (default: FOLDER/paired_A_vs_B.json)")
+    args = parser.parse_args()
+    started = time.time()
+    path = Path(args.folder) / "episodes.jsonl"
+    if not path.is_file():
+        sys.exit(f"error: {path} does not exist: pass a folder written by `bimanualshift bench` or `study`")
+    a, b = args.methods
+    success: dict[tuple[str, str, int], bool] = {}
+    for line in path.read_text().splitlines():
+        row = json.loads(line)
+        if row["method"] in (a, b) and row.get("perturbation", "none") == "none":
+            success[(row["method"], row["task"], int(row["seed"]))] = bool(row["success"])
+    tasks = sorted({task for method, task, _ in success if method == a})
+    rows, seeds, flags_a, flags_b = [], {}, [], []
+    for task in tasks:
+        common = sorted(seed for method, t, seed in success if method == a and t == task and (b, task, seed) in success)
+        if not common:
+            continue
+        seeds[task] = common
+        task_a, task_b = [success[(a, task, s)] for s in common], [success[(b, task, s)] for s in common]
+        flags_a += task_a
+        flags_b += task_b
+        rows.append({"task": task, **_row(a, b, task_a, task_b)})
+    if not rows:
+        sys.exit(f"error: {a} and {b} share no seed in {path}: check the method names")
+    rows.append({"task": "all", **_row(a, b, flags_a, flags_b)})
+    for row in rows:
+        print(f"{row['task']}: {row['pairs']} pairs, {a} wins {row[f'{a}_wins']}, {b} wins {row[f'{b}_wins']}, "
+              f"p = {row['p_value']}")
+    out = args.out or str(Path(args.folder) / f"paired_{a}_vs_{b}.json")
+    command = " ".join(["python benchmarks/paired_comparison.py", *(shlex.quote(x) for x in sys.argv[1:])])
+    write_result(out, command, seeds, started, rows,
+                 notes=f"episodes of {path} where both methods ran the seed; wins: episodes one method solved and "
+                       "the other did not; p: exact two-sided sign test")
+    print(f"wrote {out}")
+
+
+def _row(a: str, b: str, flags_a: list[bool], flags_b: list[bool]) -> dict[str, float | int]:
+    result = paired_sign_test(flags_a, flags_b)
+    return {"pairs": result.pairs, f"{a}_success": round(sum(flags_a) / len(flags_a), 3),
+            f"{b}_success": round(sum(flags_b) / len(flags_b), 3), f"{a}_wins": result.a_wins,
+            f"{b}_wins": result.b_wins, "p_value": round(result.p_value, 4)}
+
+
+if __name__ == "__main__":
+    main()
