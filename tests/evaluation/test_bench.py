@@ -263,3 +263,19 @@ def test_design_choices_roll_out_on_validation_seeds_never_test_seeds(demo_root:
     assert {e["seed"] for e in read_episodes(tmp_path / "out" / "episodes.jsonl")} == set(rollouts)
     with pytest.raises(ValueError, match="evaluate_on"):
         run_bench(replace(cfg, evaluate_on="train", out=str(tmp_path / "other")))
+
+
+def test_refinement_records_keep_the_fine_tuning_step_refinement_handed_on(tmp_path: Path) -> None:
+    from bimanualshift.evaluation.bench import refinement_records
+
+    cfg = BenchConfig(tasks=["lift_ball"], methods=["bimanualshift", "no_refinement"], runs=str(tmp_path))
+    summary = {"scenes": 20, "policy_successes": 20, "corrected_successes": 0, "correction_samples": 0,
+               "inserted_into_memory": 20, "memory_entries": 118, "best": {"step": 0, "value": 0.1},
+               "wall_time_s": 108.8}
+    folder = tmp_path / "lift_ball" / "bimanualshift" / REFINE_FOLDER
+    folder.mkdir(parents=True)
+    (folder / "summary.json").write_text(json.dumps(summary))
+    records = refinement_records(cfg, ["lift_ball"])
+    assert list(records) == ["lift_ball/bimanualshift"]  # the unrefined ablation has no refinement stage
+    assert records["lift_ball/bimanualshift"]["best"] == {"step": 0, "value": 0.1}
+    assert "wall_time_s" not in records["lift_ball/bimanualshift"]

@@ -145,13 +145,15 @@ def check_training_run(request: TrainRequest) -> None:
                     "a refinement run", fix)
 
 
+# "best": the fine-tuning step refinement handed on (step 0: the trained weights, unchanged) and its validation value
 REFINEMENT_FIELDS = ("scenes", "policy_successes", "corrected_successes", "correction_samples",
-                     "inserted_into_memory", "memory_entries")
+                     "inserted_into_memory", "memory_entries", "best")
 
 
 def refinement_records(cfg: BenchConfig, tasks: list[str]) -> dict[str, dict[str, Any]]:
     """Per "task/method" that was refined: its rollouts on training scenes, the failures the expert corrected into
-    successes, the correction samples, and the memory entries added (from the run's refine/summary.json)."""
+    successes, the correction samples, the memory entries added and the fine-tuning step kept (from the run's
+    refine/summary.json)."""
     out = {}
     for task in tasks:
         for method in (m for m in cfg.methods if get_method(m).refine):
