@@ -11,7 +11,6 @@ folder's ``episodes.jsonl``; nothing is rolled out.
 from __future__ import annotations
 
 import argparse
-import json
 import shlex
 import sys
 import time
@@ -19,6 +18,7 @@ from pathlib import Path
 
 from bimanualshift.evaluation.report import write_result
 from bimanualshift.evaluation.stats import paired_sign_test
+from bimanualshift.utils.jsonl import read_records
 
 
 def main() -> None:
@@ -33,8 +33,7 @@ def main() -> None:
         sys.exit(f"error: {path} does not exist: pass a folder written by `bimanualshift bench` or `study`")
     a, b = args.methods
     success: dict[tuple[str, str, int], bool] = {}
-    for line in path.read_text().splitlines():
-        row = json.loads(line)
+    for row in read_records(path):  # a line cut short by a study still writing is skipped
         if row["method"] in (a, b) and row.get("perturbation", "none") == "none":
             success[(row["method"], row["task"], int(row["seed"]))] = bool(row["success"])
     tasks = sorted({task for method, task, _ in success if method == a})

@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+import numpy as np
 import torch
 import torch.nn.functional as F
+
+from bimanualshift.geometry.frames import GRIPPER_DOWN_QUAT
 
 
 def quat_to_matrix(quat: torch.Tensor) -> torch.Tensor:
@@ -46,8 +49,7 @@ def rotation_6d_to_matrix(d6: torch.Tensor) -> torch.Tensor:
     return torch.stack([b1, b2, b3], dim=-1)
 
 
-def quat_toward(quat: torch.Tensor, pole: tuple[float, float, float, float] = (1.0, 0.0, 0.0, 0.0)) -> torch.Tensor:
-    """(..., 4) q or -q, whichever lies on ``pole``'s side (x y z w; default the gripper pointing down, as
-    ``geometry.frames.GRIPPER_DOWN_QUAT``)."""
-    pole_t = torch.tensor(pole, dtype=quat.dtype, device=quat.device)
+def quat_toward(quat: torch.Tensor, pole: np.ndarray = GRIPPER_DOWN_QUAT) -> torch.Tensor:
+    """(..., 4) q or -q, whichever lies on ``pole``'s side (x y z w; default the gripper pointing down)."""
+    pole_t = torch.as_tensor(pole, dtype=quat.dtype, device=quat.device)
     return torch.where((quat * pole_t).sum(-1, keepdim=True) < 0, -quat, quat)
