@@ -279,3 +279,16 @@ def test_refinement_records_keep_the_fine_tuning_step_refinement_handed_on(tmp_p
     assert list(records) == ["lift_ball/bimanualshift"]  # the unrefined ablation has no refinement stage
     assert records["lift_ball/bimanualshift"]["best"] == {"step": 0, "value": 0.1}
     assert "wall_time_s" not in records["lift_ball/bimanualshift"]
+
+
+def test_records_of_runs_no_longer_on_disk_are_carried_from_the_earlier_summary(tmp_path: Path) -> None:
+    from bimanualshift.evaluation.bench import carried_records
+
+    summary = tmp_path / "summary.json"
+    assert carried_records(summary, "training", {"t/a": {"best": 1}}, []) == {"t/a": {"best": 1}}  # no summary yet
+    summary.write_text(json.dumps({"training": {"t/a": {"best": 0}, "t/b": {"best": 2}, "t/gone": {"best": 3}}}))
+    episodes = [{"task": "t", "method": m, "seed": 0} for m in ("a", "b", "c")]
+    # a retrained here is read afresh, b's run is gone but its episodes stay, "gone" has no episodes left
+    assert carried_records(summary, "training", {"t/a": {"best": 1}}, episodes) == {"t/a": {"best": 1},
+                                                                                    "t/b": {"best": 2}}
+    assert carried_records(summary, "refinement", {}, episodes) == {}

@@ -119,3 +119,62 @@ def test_explain_command_takes_methods_as_bench_does_and_names_an_unknown_one(
         assert "## b: 1 of 1 episodes failed" in out and "## a:" not in out
     with pytest.raises(ValueError, match="no logged episodes of c on 't'.*logged methods: a, b"):
         explain_rows(tmp_path, "t", ["b", "c"])
+
+
+def _retrieving_step(k: int, x: float, entry: int | None, source: str | None = None) -> dict:
+    retrieval = {"similarity": 0.99, "fired": entry is not None, "entry": entry}
+    if source is not None:
+        retrieval["source"] = source
+    return {**_step(k, [_row(x), _row(0.2)], [_row(0.5), _row(0.2)]), "policy": {"arms": [], "retrieval": retrieval}}
+
+
+def test_the_reference_s_source_comes_from_the_log_or_from_the_memory_s_size() -> None:
+    from bimanualshift.evaluation.explain import retrieval_source
+
+    assert retrieval_source({"fired": True, "entry": 3, "source": "refinement"}, None, True) == "refinement"
+    assert retrieval_source({"fired": False, "entry": None}, 10, True) == "none"
+    assert retrieval_source(None, 10, True) == "none"
+    # an older log: refinement appends after the demos' entries
+    assert retrieval_source({"fired": True, "entry": 9}, 10, True) == "demo"
+    assert retrieval_source({"fired": True, "entry": 10}, 10, True) == "refinement"
+    assert retrieval_source({"fired": True, "entry": 12}, None, False) == "demo"  # never refined
+    assert retrieval_source({"fired": True, "entry": 12}, None, True) == "unknown"
+
+
+def test_explain_splits_episodes_by_the_reference_s_source_and_against_another_method(tmp_path: Path) -> None:
+    import gzip
+
+    # the refined method "r" follows refinement entries (index >= 2 in an older log) on seeds 0 and 1 and a demo
+    # entry on seed 2; the unrefined "u" succeeds on seeds 0 and 2 and acts the same where r followed a demo
+    outcomes = {("r", 0): False, ("r", 1): True, ("r", 2): True, ("u", 0): True, ("u", 1): False, ("u", 2): True}
+    steps = {("r", 0): [_retrieving_step(0, 0.5, 2), _retrieving_step(1, 0.9, 2)],
+             ("r", 1): [_retrieving_step(0, 0.52, 3), _retrieving_step(1, 0.5, 3)],
+             ("r", 2): [_retrieving_step(0, 0.5, 1), _retrieving_step(1, 0.5, 1)],
+             **{("u", s): [_retrieving_step(0, 0.5, 1, "demo"), _retrieving_step(1, 0.5, 1, "demo")]
+                for s in range(3)}}
+    (tmp_path / "episodes.jsonl").write_text("".join(
+        json.dumps({"task": "t", "method": m, "seed": s, "success": ok, "keyframes": 2}) + "\n"
+        for (m, s), ok in outcomes.items()))
+    with gzip.open(tmp_path / "keyframes.jsonl.gz", "wt") as f:  # an archived folder's log
+        f.write("".join(json.dumps({"task": "t", "method": m, "seed": s, "steps": st}) + "\n"
+                        for (m, s), st in steps.items()))
+    (tmp_path / "summary.json").write_text(json.dumps(
+        {"refinement": {"t/r": {"memory_entries": 4, "inserted_into_memory": 2}}}))
+    # "r" stands in for a refined method: the summary's record is what marks it refined here
+    rows = {r["method"]: r for r in explain_rows(tmp_path, "t", ["r"], against="u")}
+    assert rows["r"]["by_retrieval_source"] == {"demo": {"episodes": 1, "successes": 1},
+                                                "refinement": {"episodes": 2, "successes": 1}}
+    assert rows["u"]["by_retrieval_source"] == {"demo": {"episodes": 3, "successes": 2}}
+    versus = rows["r"]["against"]
+    assert versus["method"] == "u"
+    assert versus["by_source"]["refinement"] == {
+        "episodes": 2, "successes": 1, "other_successes": 1, "won": 1, "lost": 1,
+        "first_keyframe_shift_cm": [0.0, 2.0], "parted_at_keyframe": {"1": 1, "None": 1}}
+    assert versus["by_source"]["demo"]["parted_at_keyframe"] == {"None": 1}
+    assert rows["r"]["failed_episodes"][0]["first_keyframe_error_cm"] == {"left": 0.0, "right": 0.0}
+    assert rows["r"]["failed_episodes"][0]["retrieval_entry"] == 2
+    text = explain_text(list(rows.values()), "t")
+    assert "successes by the reference's source: demo 1/1, refinement 1/2" in text
+    assert "refinement: 2 episodes, 1 vs 1 successes, 1 won, 1 lost" in text
+    with pytest.raises(ValueError, match="no logged episodes of v on 't'"):
+        explain_rows(tmp_path, "t", ["r"], against="v")

@@ -19,6 +19,7 @@ from bimanualshift.geometry.frames import compose_rotation, quat_to_euler_bins
 from bimanualshift.memory.bank import MemoryBank
 from bimanualshift.methods.bimanualshift import MEMORY_FILE, BimanualShift, load_bimanualshift
 from bimanualshift.residual.manager import action_lattice
+from bimanualshift.rollout.loop import rollout
 from bimanualshift.sim.env import ManipulationEnv
 from bimanualshift.training.checkpoint import latest_checkpoint
 from bimanualshift.training.configs import RefineConfig, TrainConfig
@@ -123,7 +124,12 @@ def test_refine_corrects_grows_memory_resumes_and_keeps_prior_frozen(trained: Pa
     for key, value in prior_before.items():
         assert torch.equal(value, prior_after[key]), key
     assert json.loads((best / "config.json").read_text())["refined_from"] == str(trained)
-    load_bimanualshift(best, default_text_encoder())  # the refined checkpoint loads like a trained one
+    refined = load_bimanualshift(best, default_text_encoder())  # the refined checkpoint loads like a trained one
+    # an episode's log names the entry it followed and where that entry came from (`bimanualshift explain`)
+    (row,) = rollout(ManipulationEnv("push_two_buttons"), refined, seed=7, max_keyframes=1).steps
+    found = row["policy"]["retrieval"]
+    assert found["fired"] and found["source"] == bank.entries[found["entry"]].source
+    assert found["source_seed"] == bank.entries[found["entry"]].seed
 
 
 def test_scenes_rolled_out_in_two_workers_match_one(trained: Path, tmp_path: Path) -> None:

@@ -207,16 +207,23 @@ class ExplainArgs:
     task: str  # the bimanual task whose failures to explain
     # only these methods (default: every one in the folder); --methods as in bench and study
     methods: Annotated[list[str], tyro.conf.arg(aliases=("--method",))] = field(default_factory=list)
+    # also set each method's episodes against this method's on the same seeds, split by the source of the
+    # reference retrieved (a demo or a refinement rollout): wins, losses and how far the executed keyframes moved
+    against: str = ""
     out: str = ""  # also write the rows as a JSON result file here
 
 
 def explain(args: ExplainArgs) -> None:
     from bimanualshift.evaluation.explain import explain_rows, explain_text
 
-    rows = explain_rows(args.folder, args.task, args.methods or None)
+    started = time.time()
+    rows = explain_rows(args.folder, args.task, args.methods or None, args.against or None)
     print(explain_text(rows, args.task))
     if args.out:
-        from bimanualshift.utils.io import atomic_write_json
+        from bimanualshift.evaluation.explain import explained_seeds
+        from bimanualshift.evaluation.report import write_result
 
-        atomic_write_json(args.out, {"folder": args.folder, "task": args.task, "rows": rows})
+        write_result(args.out, command_line(), explained_seeds(args.folder, args.task),
+                     started, rows, notes=f"failures of {args.task} in {args.folder}", folder=args.folder,
+                     task=args.task, against=args.against or None)
         print(f"wrote {args.out}")

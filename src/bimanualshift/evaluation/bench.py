@@ -182,6 +182,18 @@ def training_records(cfg: BenchConfig, tasks: list[str]) -> dict[str, dict[str, 
     return out
 
 
+def carried_records(summary: Path, field: str, fresh: dict[str, dict[str, Any]], episodes: list[dict[str, Any]]
+                    ) -> dict[str, dict[str, Any]]:
+    """``fresh`` (read from runs/) plus the earlier summary's ``field`` records of the task/method pairs that still
+    have episodes in the folder and that runs/ no longer holds: runs/ is not committed, so re-tabulating on another
+    machine (``--recorded-only``) or benchmarking one more method into the folder keeps the records of the runs
+    behind the episodes already there. A pair retrained here is read afresh."""
+    earlier = (json.loads(summary.read_text()).get(field) or {}) if summary.is_file() else {}
+    tabled = {f"{e['task']}/{e['method']}" for e in episodes}
+    kept = {k: v for k, v in earlier.items() if k in tabled and k not in fresh}
+    return dict(sorted({**kept, **fresh}.items()))
+
+
 def run_bench_episode(job: BenchJob) -> dict[str, Any]:
     """One test episode in a worker (environments and loaded policies are cached per process)."""
     import torch
@@ -369,10 +381,14 @@ def run_bench(cfg: BenchConfig, command: str | None = None) -> Path:
         title = f"{cfg.demos} demos, {cfg.episodes} test episodes per task (95 % Wilson intervals)"
         draw_plots(out, rows, title)
         atomic_write_text(out / "table.md", bench_table(rows) + "\n" + stage_table(rows))
+    recorded_episodes = read_episodes(log)
     recorded = seeds if cfg.evaluate_on == "test" else {
         "train": seeds["train"], "validation": seeds["validation"], "validation_rollouts": seeds["test"]}
     write_result(out / "summary.json", command, recorded, started, rows, bench=True, config=asdict(cfg),
-                 refinement=refinement_records(cfg, tasks), training=training_records(cfg, tasks),
+                 refinement=carried_records(out / "summary.json", "refinement", refinement_records(cfg, tasks),
+                                            recorded_episodes),
+                 training=carried_records(out / "summary.json", "training", training_records(cfg, tasks),
+                                          recorded_episodes),
                  methods={m: METHODS[m].description for m in cfg.methods},
                  notes=f"prior {cfg.prior}; episodes stop at {KEYFRAME_BUDGET}x the expert's keyframes on the "
                        "same seed; wall time covers this invocation only (a resumed run reuses earlier work)")

@@ -10,6 +10,8 @@ episode also says whether the policy moved that arm first (a role swap otherwise
 
 from __future__ import annotations
 
+import gzip
+import json
 from collections import Counter
 from dataclasses import dataclass
 from pathlib import Path
@@ -20,6 +22,7 @@ import numpy as np
 from bimanualshift.core.arms import ARM_NAMES_BIMANUAL
 from bimanualshift.evaluation.bench import KEYFRAME_LOG
 from bimanualshift.geometry.frames import gripper_angle_deg
+from bimanualshift.registry import METHODS, get_method
 from bimanualshift.utils.jsonl import read_records
 
 TOLERANCE_M, TOLERANCE_DEG = 0.03, 20.0
@@ -69,6 +72,16 @@ def lead_arms(steps: list[dict[str, Any]], arms: tuple[str, ...] = ARM_NAMES_BIM
     return arms[int(np.argmax(plan))], arms[int(np.argmax(moved))]
 
 
+def first_keyframe_error_cm(steps: list[dict[str, Any]], arms: tuple[str, ...] = ARM_NAMES_BIMANUAL
+                            ) -> dict[str, float] | None:
+    """Per arm, how far (cm) the first executed position lies from the expert's on the same seed."""
+    if not steps or steps[0]["expert"] is None:
+        return None
+    executed, expert = np.asarray(steps[0]["executed"]), np.asarray(steps[0]["expert"])
+    return {arms[i] if i < len(arms) else str(i): round(100 * float(np.linalg.norm(a[:3] - b[:3])), 2)
+            for i, (a, b) in enumerate(zip(executed, expert))}
+
+
 def _retrieval(steps: list[dict[str, Any]]) -> dict[str, Any] | None:
     for row in steps:
         found = (row.get("policy") or {}).get("retrieval")
@@ -77,18 +90,106 @@ def _retrieval(steps: list[dict[str, Any]]) -> dict[str, Any] | None:
     return None
 
 
-def explain_rows(folder: str | Path, task: str, methods: list[str] | None = None) -> list[dict[str, Any]]:
+def first_refinement_entries(folder: Path) -> dict[str, int]:
+    """Per "task/method" that was refined, the index of its memory's first refinement entry. Refinement appends
+    its successes after the demos' entries, so in logs written before the retrieval record named the entry's
+    source, an entry index at or past this one is a refinement rollout (from the folder's summary.json)."""
+    summary = folder / "summary.json"
+    records = (json.loads(summary.read_text()).get("refinement") or {}) if summary.is_file() else {}
+    return {key: int(r["memory_entries"]) - int(r["inserted_into_memory"]) for key, r in records.items()
+            if r.get("memory_entries") is not None and r.get("inserted_into_memory") is not None}
+
+
+def retrieval_source(retrieval: dict[str, Any] | None, first_refinement: int | None, refined: bool) -> str:
+    """Where the reference an episode followed came from: "demo" or "refinement" (the fired entry's source),
+    "none" (no memory, or nothing above the threshold) or "unknown" (an older log of a refined method whose
+    summary lacks the memory's size)."""
+    if retrieval is None or not retrieval.get("fired") or retrieval.get("entry") is None:
+        return "none"
+    if retrieval.get("source"):
+        return str(retrieval["source"])
+    if not refined:
+        return "demo"
+    if first_refinement is None:
+        return "unknown"
+    return "refinement" if int(retrieval["entry"]) >= first_refinement else "demo"
+
+
+def keyframe_shifts_cm(mine: list[dict[str, Any]], theirs: list[dict[str, Any]]) -> list[float]:
+    """Per keyframe both episodes reached, the larger of the two arms' distances (cm) between the positions the
+    two methods executed on the same seed."""
+    return [round(100 * float(np.linalg.norm(np.asarray(a["executed"])[:, :3] - np.asarray(b["executed"])[:, :3],
+                                             axis=-1).max()), 2) for a, b in zip(mine, theirs)]
+
+
+def _keyframe_order(item: tuple[str, int]) -> tuple[bool, int]:
+    return item[0] == "None", int(item[0]) if item[0] != "None" else 0
+
+
+def _span(values: list[float]) -> list[float] | None:
+    return [round(min(values), 2), round(max(values), 2)] if values else None
+
+
+def against_rows(method_keys: list[tuple], episodes: dict[tuple, dict[str, Any]], logs: dict[tuple, list],
+                 sources: dict[tuple, str], other: str) -> dict[str, Any]:
+    """The method's episodes against ``other``'s on the same seeds, split by retrieval source: successes each, the
+    episodes only the method won and only ``other`` won, how far apart the two executed first keyframes lie
+    ([min, max] in cm), and the keyframe at which the two first part by more than the 3 cm tolerance (None: never
+    within the keyframes both reached; later keyframes of a failing episode wander and say little)."""
+    by_source: dict[str, dict[str, Any]] = {}
+    for k in method_keys:
+        theirs = (k[0], other, k[2], k[3])
+        if theirs not in episodes or theirs not in logs:
+            continue
+        cell = by_source.setdefault(sources[k], {"episodes": 0, "successes": 0, "other_successes": 0, "won": 0,
+                                                 "lost": 0, "first": [], "parted_at_keyframe": Counter()})
+        ours_ok, theirs_ok = bool(episodes[k]["success"]), bool(episodes[theirs]["success"])
+        cell["episodes"] += 1
+        cell["successes"] += ours_ok
+        cell["other_successes"] += theirs_ok
+        cell["won"] += ours_ok and not theirs_ok
+        cell["lost"] += theirs_ok and not ours_ok
+        shifts = keyframe_shifts_cm(logs[k], logs[theirs])
+        if shifts:
+            cell["first"].append(shifts[0])
+            parted = next((i for i, d in enumerate(shifts) if d > 100 * TOLERANCE_M), None)
+            cell["parted_at_keyframe"][str(parted)] += 1
+    for cell in by_source.values():
+        cell["first_keyframe_shift_cm"] = _span(cell.pop("first"))
+        cell["parted_at_keyframe"] = dict(sorted(cell["parted_at_keyframe"].items(), key=_keyframe_order))
+    return {"method": other, "by_source": dict(sorted(by_source.items()))}
+
+
+def explained_seeds(folder: str | Path, task: str) -> dict[str, list[int]]:
+    """The test seeds of ``task``'s episodes in ``folder`` (a result file names its seeds)."""
+    return {"test": sorted({int(e["seed"]) for e in read_records(Path(folder) / "episodes.jsonl")
+                            if e["task"] == task})}
+
+
+def _log_records(path: Path) -> list[dict[str, Any]]:
+    if path.suffix != ".gz":
+        return read_records(path)
+    with gzip.open(path, "rt") as f:
+        return [json.loads(line) for line in f if line.strip()]
+
+
+def explain_rows(folder: str | Path, task: str, methods: list[str] | None = None, against: str | None = None
+                 ) -> list[dict[str, Any]]:
     """One row per method of ``task`` in bench folder ``folder``: episodes, failures, the stages failures reached,
-    where they first diverged (keyframe, arm), holds, and the retrieval's firing rate and mean similarity."""
+    where they first diverged (keyframe, arm), holds, the retrieval's firing rate and mean similarity, and the
+    episodes by the source of the reference they retrieved (a demo or a refinement rollout) with their successes.
+    With ``against``, each other method's episodes are also set against that method's on the same seeds."""
     folder = Path(folder)
     log = folder / KEYFRAME_LOG
+    if not log.is_file() and log.with_suffix(".jsonl.gz").is_file():  # an archived folder keeps its log gzipped
+        log = log.with_suffix(".jsonl.gz")
     if not log.is_file():
         raise FileNotFoundError(f"{folder} has no {KEYFRAME_LOG}: it was benchmarked before per-keyframe logs "
                                 "existed; re-run its bench command (finished episodes are not redone, so delete "
                                 "episodes.jsonl to log them)")
     episodes = {(e["task"], e["method"], e.get("perturbation", "none"), e["seed"]): e
                 for e in read_records(folder / "episodes.jsonl")}
-    logs = {(r["task"], r["method"], r.get("perturbation", "none"), r["seed"]): r["steps"] for r in read_records(log)}
+    logs = {(r["task"], r["method"], r.get("perturbation", "none"), r["seed"]): r["steps"] for r in _log_records(log)}
     keys = [k for k in episodes if k[0] == task and k in logs]
     if not keys:
         known = sorted({k[0] for k in logs})
@@ -99,7 +200,14 @@ def explain_rows(folder: str | Path, task: str, methods: list[str] | None = None
         if unknown:
             raise ValueError(f"no logged episodes of {', '.join(unknown)} on {task!r} in {folder}; logged methods: "
                              f"{', '.join(logged)}")
-        keys = [k for k in keys if k[1] in methods]
+        keys = [k for k in keys if k[1] in methods + ([against] if against else [])]
+    if against and against not in {k[1] for k in keys}:
+        raise ValueError(f"no logged episodes of {against} on {task!r} in {folder} to set the methods against")
+    first_refinement = first_refinement_entries(folder)
+    # refined: the summary records its refinement, or the registry says the method is refined
+    sources = {k: retrieval_source(_retrieval(logs[k]), first_refinement.get(f"{k[0]}/{k[1]}"),
+                                   f"{k[0]}/{k[1]}" in first_refinement
+                                   or (k[1] in METHODS and get_method(k[1]).refine)) for k in keys}
     rows = []
     for method in dict.fromkeys(k[1] for k in keys):
         mine = [k for k in keys if k[1] == method]
@@ -131,7 +239,10 @@ def explain_rows(folder: str | Path, task: str, methods: list[str] | None = None
                                              for d in divergences.values()).most_common()),
             "failed_episodes": [{"seed": k[3], "stages_done": episodes[k].get("stages_done", 0),
                           "keyframes": episodes[k]["keyframes"],
-                          "first_divergence": None if d is None else vars(d)} for k, d in divergences.items()],
+                          "first_divergence": None if d is None else vars(d),
+                          "first_keyframe_error_cm": first_keyframe_error_cm(logs[k]),
+                          "retrieval_source": sources[k],
+                          "retrieval_entry": (_retrieval(logs[k]) or {}).get("entry")} for k, d in divergences.items()],
             "held_arm_keyframes": held,
             "held_by_arm_and_stage": {arm: dict(sorted(v.items())) for arm, v in held_by_stage.items()},
             "same_lead_arm": dict(sorted(leads.items())),
@@ -139,7 +250,13 @@ def explain_rows(folder: str | Path, task: str, methods: list[str] | None = None
             "retrieval_similarity": (round(float(np.mean([r["similarity"] for r in retrievals
                                                           if r["similarity"] is not None])), 3)
                                      if retrievals else None),
+            "by_retrieval_source": {source: {"episodes": sum(sources[k] == source for k in mine),
+                                             "successes": sum(bool(episodes[k]["success"]) for k in mine
+                                                              if sources[k] == source)}
+                                    for source in sorted({sources[k] for k in mine})},
         })
+        if against and method != against:
+            rows[-1]["against"] = against_rows(mine, episodes, logs, sources, against)
     return rows
 
 
@@ -167,5 +284,18 @@ def explain_text(rows: list[dict[str, Any]], task: str) -> str:
         if r["retrieval_fired"] is not None:
             lines.append(f"  retrieval fired in {100 * r['retrieval_fired']:.0f} % of episodes "
                          f"(mean nearest similarity {r['retrieval_similarity']})")
+            by_source = ", ".join(f"{source} {c['successes']}/{c['episodes']}"
+                                  for source, c in r["by_retrieval_source"].items())
+            lines.append(f"  successes by the reference's source: {by_source}")
+        if "against" in r:
+            lines.append(f"  against {r['against']['method']} on the same seeds, by the reference's source:")
+            for source, c in r["against"]["by_source"].items():
+                first = c["first_keyframe_shift_cm"]
+                parted = ", ".join(f"k{k}: {n}" if k != "None" else f"never: {n}"
+                                   for k, n in c["parted_at_keyframe"].items())
+                lines.append(f"    {source}: {c['episodes']} episodes, {c['successes']} vs {c['other_successes']} "
+                             f"successes, {c['won']} won, {c['lost']} lost; first keyframes "
+                             f"{first[0] if first else '-'}-{first[1] if first else '-'} cm apart; "
+                             f"parted by > 3 cm at {parted}")
         lines.append("")
     return "\n".join(lines)

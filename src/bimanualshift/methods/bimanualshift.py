@@ -68,11 +68,14 @@ class BimanualShift:
     def keyframe_log(self) -> dict:
         """The last keyframe's decisions, per arm: the frozen prior's world-frame action (position, quaternion,
         open probability), the final action, the gripper's open probability after the residual and whether the
-        arm held; and the episode's retrieval: the nearest stored execution's similarity and whether it passed
-        the threshold (fired)."""
+        arm held; and the episode's retrieval: the nearest stored execution's similarity, whether it passed
+        the threshold (fired), and the fired entry's index, source ("demo" or "refinement") and seed."""
         return {"arms": self._log, "retrieval": None if self.memory is None else {
             "similarity": self._nearest_similarity, "fired": self.retrieval is not None,
-            "entry": None if self.retrieval is None else self.retrieval.index, "aligned_step": dict(self._steps)}}
+            "entry": None if self.retrieval is None else self.retrieval.index,
+            "source": None if self.retrieval is None else self.retrieval.entry.source,
+            "source_seed": None if self.retrieval is None else self.retrieval.entry.seed,
+            "aligned_step": dict(self._steps)}}
 
     @torch.no_grad()
     def decide(self, obs: KeyframeObservation) -> list[ArmDecision]:
