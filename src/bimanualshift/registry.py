@@ -20,6 +20,12 @@ from bimanualshift.training.request import TrainRequest
 
 DEFAULT_TRAIN_STEPS = 1500  # for methods that name no steps of their own
 
+# Refinement inside the benchmark (Eq. 10-11, 13): rollouts on this many training scenes after the demos' own
+# (train-split seeds, never validation or test), the expert correcting failures; request overrides
+# ``refine_episodes`` / ``refine_steps`` change them.
+REFINE_EPISODES = 20
+REFINE_FOLDER = "refine"  # under the method's run directory: its rollouts, checkpoints and summary.json
+
 
 @dataclass(frozen=True)
 class MethodSpec:
@@ -36,6 +42,9 @@ class MethodSpec:
     # the method whose training run this one shares (its folder in a benchmark's runs): the full method before
     # refinement is the full method's own trained residual, not a second, identical training
     trains_as: str = ""
+    # its refinement stage's folder under the run directory (variants refining one shared run differently each
+    # keep their own)
+    refine_folder: str = REFINE_FOLDER
     # what the method is in a study: the method itself (and its variants), an ablation of it, a baseline that
     # starts from a pretrained prior, or a baseline trained from scratch on the bimanual demos only
     role: str = "method"
@@ -71,12 +80,6 @@ def methods_with_role(*roles: str) -> list[str]:
     return [name for name, spec in METHODS.items() if spec.role in roles]
 
 
-# Refinement inside the benchmark (Eq. 10-11, 13): rollouts on this many training scenes after the demos' own
-# (train-split seeds, never validation or test), the expert correcting failures; request overrides
-# ``refine_episodes`` / ``refine_steps`` change them.
-REFINE_EPISODES = 20
-REFINE_FOLDER = "refine"  # under the method's run directory: its rollouts, checkpoints and summary.json
-
 
 def _finished(run: Path) -> Path | None:
     """``run``'s best checkpoint when an earlier (interrupted) benchmark run finished it, else None."""
@@ -85,9 +88,12 @@ def _finished(run: Path) -> Path | None:
 
 
 def _residual_method(name: str, description: str, refine: bool = True, trains_as: str = "", role: str = "method",
-                     **switches: Any) -> MethodSpec:
+                     refine_memory: str = "all", **switches: Any) -> MethodSpec:
     """BimanualShift trained with ``switches`` (TrainConfig fields) on top of the request, then (``refine``)
-    refined on training scenes: the method as the paper runs it."""
+    refined on training scenes: the method as the paper runs it. ``refine_memory`` picks the successes refinement
+    adds to the memory (RefineConfig.memory_insert); any other choice than the paper's "all" refines in a folder
+    of its own."""
+    refine_folder = REFINE_FOLDER if refine_memory == "all" else f"{REFINE_FOLDER}_{refine_memory}"
 
     def train(request: TrainRequest) -> Path:
         from bimanualshift.training.configs import RefineConfig, TrainConfig
@@ -102,11 +108,12 @@ def _residual_method(name: str, description: str, refine: bool = True, trains_as
         best = _finished(Path(request.out)) or train_residual(cfg)
         if not refine:
             return best
-        refined = Path(request.out) / REFINE_FOLDER
+        refined = Path(request.out) / refine_folder
         return _finished(refined) or run_refinement(RefineConfig(
             checkpoint=str(best), out=str(refined), start=request.demos, seed=request.seed,
             episodes=int(request.overrides.get("refine_episodes", REFINE_EPISODES)),
-            steps=int(request.overrides.get("refine_steps", RefineConfig.steps)), workers=request.workers))
+            steps=int(request.overrides.get("refine_steps", RefineConfig.steps)), workers=request.workers,
+            memory_insert=refine_memory))
 
     def load(checkpoint: Path | None, request: TrainRequest) -> Policy:
         from bimanualshift.methods.bimanualshift import load_bimanualshift
@@ -116,7 +123,7 @@ def _residual_method(name: str, description: str, refine: bool = True, trains_as
         return policy
 
     return MethodSpec(name, description, train, load, continual=True, steps=RESIDUAL_STEPS, refine=refine,
-                      trains_as=trains_as, role=role)
+                      trains_as=trains_as, refine_folder=refine_folder, role=role)
 
 
 def _frozen_prior_method(name: str, description: str, use_projection: bool, role: str) -> MethodSpec:
@@ -143,6 +150,14 @@ register_method(_residual_method(
 register_method(_residual_method(
     "no_refinement", "ablation: the full method before refinement (L_BC only; the full method's run before its "
     "refinement stage)", refine=False, trains_as="bimanualshift", retrieval=True, role="ablation"))
+register_method(_residual_method(
+    "corrections_memory", "variant: the full method whose refinement adds to the memory only the successes the "
+    "expert corrected, not the policy's own (compare with bimanualshift and no_refinement on validation seeds)",
+    trains_as="bimanualshift", retrieval=True, refine_memory="corrected"))
+register_method(_residual_method(
+    "fixed_memory", "variant: the full method whose refinement fine-tunes on the corrections and adds nothing to "
+    "the memory, which keeps the demos alone (compare with bimanualshift and no_refinement on validation seeds)",
+    trains_as="bimanualshift", retrieval=True, refine_memory="none"))
 register_method(_residual_method(
     "paper_literal", "ablation: the residual moves translation and rotation only (Eq. 4 as written: no gripper "
     "residual, no hold)", retrieval=True, paper_literal=True, role="ablation"))

@@ -292,3 +292,20 @@ def test_records_of_runs_no_longer_on_disk_are_carried_from_the_earlier_summary(
     assert carried_records(summary, "training", {"t/a": {"best": 1}}, episodes) == {"t/a": {"best": 1},
                                                                                     "t/b": {"best": 2}}
     assert carried_records(summary, "refinement", {}, episodes) == {}
+
+
+def test_memory_variants_share_the_full_method_s_training_and_refine_in_folders_of_their_own(tmp_path: Path) -> None:
+    from bimanualshift.evaluation.bench import refinement_records
+
+    names = ("bimanualshift", "corrections_memory", "fixed_memory")
+    specs = [get_method(m) for m in names]
+    assert {s.run_name for s in specs} == {"bimanualshift"}
+    assert [s.refine_folder for s in specs] == [REFINE_FOLDER, f"{REFINE_FOLDER}_corrected", f"{REFINE_FOLDER}_none"]
+    for inserted, spec in enumerate(specs):
+        folder = tmp_path / "lift_ball" / "bimanualshift" / spec.refine_folder
+        folder.mkdir(parents=True)
+        (folder / "summary.json").write_text(json.dumps({"inserted_into_memory": inserted}))
+    records = refinement_records(BenchConfig(tasks=["lift_ball"], methods=list(names), runs=str(tmp_path)),
+                                 ["lift_ball"])
+    assert {k: r["inserted_into_memory"] for k, r in records.items()} == {
+        f"lift_ball/{m}": i for i, m in enumerate(names)}

@@ -191,3 +191,24 @@ def test_an_action_space_residual_is_corrected_in_its_own_action_space(demo_root
     summary = json.loads((tmp_path / "refined" / "summary.json").read_text())
     assert summary["correction_samples"] > 0 and "correction" in summary["history"][-1]
     assert load_bimanualshift(best, default_text_encoder()).residual.config.action_space
+
+
+def test_refinement_adds_to_the_memory_only_the_successes_memory_insert_names(trained: Path, tmp_path: Path) -> None:
+    import shutil
+
+    bank_before = MemoryBank.load(trained / MEMORY_FILE)
+    base = RefineConfig(checkpoint=str(trained), out=str(tmp_path / "all"), episodes=2, start=5, max_keyframes=2,
+                        steps=2, checkpoint_every=2)
+    refine(base)
+    everything = json.loads((tmp_path / "all" / "summary.json").read_text())
+    assert everything["corrected_successes"] > 0  # else "corrected" below could not tell itself from "none"
+    for mode, expected in (("corrected", everything["corrected_successes"]), ("none", 0)):
+        out = tmp_path / mode
+        shutil.copytree(tmp_path / "all" / "scenes", out / "scenes")  # the same rollouts, not rolled out again
+        best = refine(replace(base, out=str(out), memory_insert=mode))
+        summary = json.loads((out / "summary.json").read_text())
+        assert summary["corrected_successes"] == everything["corrected_successes"]
+        assert summary["inserted_into_memory"] == expected
+        bank = MemoryBank.load(best / MEMORY_FILE)
+        assert len(bank) == len(bank_before) + expected
+        assert all(e.source == "refinement" for e in bank.entries[len(bank_before):])

@@ -130,7 +130,7 @@ def check_results_folder(cfg: BenchConfig) -> None:
                 "give this run its own --out (and --runs; `study`: --results), or delete that folder to start over")
 
 
-def check_training_run(request: TrainRequest) -> None:
+def check_training_run(request: TrainRequest, refine_folder: str = REFINE_FOLDER) -> None:
     """A training run is resumed or reused only for the request that started it (paths and workers aside: data and
     runs may move, and the number of processes changes nothing)."""
     settings = {k: v for k, v in asdict(request).items() if k not in ("data", "validation_data", "out", "workers")}
@@ -141,7 +141,7 @@ def check_training_run(request: TrainRequest) -> None:
     fix = "give this run its own --runs, or delete that folder to retrain"
     _check_same(Path(request.out) / REQUEST_FILE, settings, None, "a training run", fix)
     if refine:
-        _check_same(Path(request.out) / REFINE_FOLDER / REQUEST_FILE, {**settings, **refine}, None,
+        _check_same(Path(request.out) / refine_folder / REQUEST_FILE, {**settings, **refine}, None,
                     "a refinement run", fix)
 
 
@@ -157,7 +157,8 @@ def refinement_records(cfg: BenchConfig, tasks: list[str]) -> dict[str, dict[str
     out = {}
     for task in tasks:
         for method in (m for m in cfg.methods if get_method(m).refine):
-            path = Path(cfg.runs) / task / method / REFINE_FOLDER / "summary.json"
+            spec = get_method(method)
+            path = Path(cfg.runs) / task / spec.run_name / spec.refine_folder / "summary.json"
             if path.is_file():
                 summary = json.loads(path.read_text())
                 out[f"{task}/{method}"] = {k: summary.get(k) for k in REFINEMENT_FIELDS}
@@ -355,7 +356,7 @@ def run_bench(cfg: BenchConfig, command: str | None = None) -> Path:
         for method in cfg.methods:
             request = _request(cfg, task, method, training=method in pending)
             if method in pending:
-                check_training_run(request)
+                check_training_run(request, get_method(method).refine_folder)
                 checkpoint = get_method(method).train(request)
             else:
                 print(f"[bench] {task} / {method}: every test episode is recorded; not retrained")

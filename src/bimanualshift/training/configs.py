@@ -6,7 +6,7 @@ reads (``utils.config_files.config_from_dict``)."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Literal
 
 from bimanualshift.configs import DEFAULT_PRIOR, RESIDUAL_STEPS
 
@@ -203,3 +203,7 @@ class RefineConfig:
     checkpoint_every: int = 100
     seed: int = 0
     workers: int = 1  # processes rolling the scenes out (the same scenes and result whatever the number)
+    # the successes added to the memory: "all" (the paper's Eq. 11: the policy's own and the corrected ones),
+    # "corrected" (only those the expert corrected: a reference from the policy's own success repeats where the
+    # policy already goes) or "none" (the memory keeps the demos alone)
+    memory_insert: Literal["all", "corrected", "none"] = "all"

@@ -247,8 +247,10 @@ def refine(cfg: RefineConfig, text_encoder: TextEncoder | None = None) -> Path:
     records, corrections, successes = load_scenes(collect_refinement(cfg, policy, task,
                                                                      in_process=text_encoder is not None))
     memory = MemoryBank.load(checkpoint / MEMORY_FILE) if policy.memory is not None else None
+    inserted = [s for s in successes if cfg.memory_insert == "all"
+                or (cfg.memory_insert == "corrected" and s[0].get("corrected_success"))]
     if memory is not None:
-        for record, key, trajectory in successes:
+        for record, key, trajectory in inserted:
             memory.add(key, trajectory, MemoryEntry(task, record["instruction"], "refinement", int(record["seed"])))
 
     # 4: fine-tune the residual branch on L_BC (demos) + lambda * L_corr (corrections).
@@ -308,7 +310,7 @@ def refine(cfg: RefineConfig, text_encoder: TextEncoder | None = None) -> Path:
         "corrected_successes": sum(bool(r.get("corrected_success")) for r in records),
         "correction_samples": 0 if corrections is None else len(corrections.inputs),
         "memory_entries": None if memory is None else len(memory),
-        "inserted_into_memory": len(successes) if memory is not None else 0,
+        "inserted_into_memory": len(inserted) if memory is not None else 0,
         **gate,
     }
     atomic_write_json(out / "summary.json", summary)
