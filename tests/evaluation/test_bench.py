@@ -304,7 +304,7 @@ def test_memory_variants_share_the_full_method_s_training_and_refine_in_folders_
     for inserted, spec in enumerate(specs):
         folder = tmp_path / "lift_ball" / "bimanualshift" / spec.refine_folder
         folder.mkdir(parents=True)
-        (folder / "summary.json").write_text(json.dumps({"inserted_into_memory": inserted}))
+        (folder / "summary.json").write_text(json.dumps({"scenes": 20, "inserted_into_memory": inserted}))
     records = refinement_records(BenchConfig(tasks=["lift_ball"], methods=list(names), runs=str(tmp_path)),
                                  ["lift_ball"])
     assert {k: r["inserted_into_memory"] for k, r in records.items()} == {

@@ -13,6 +13,7 @@ import json
 import shlex
 import sys
 import time
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
@@ -24,7 +25,7 @@ from bimanualshift.data.seeds import split_seeds
 from bimanualshift.evaluation.plots import draw_plots
 from bimanualshift.evaluation.stats import SuccessRate, SuccessRow
 from bimanualshift.evaluation.tables import bench_table, stage_table
-from bimanualshift.registry import METHODS, REFINE_EPISODES, REFINE_FOLDER, TrainRequest, get_method
+from bimanualshift.registry import METHODS, REFINE_EPISODES, REFINE_FOLDER, MethodSpec, TrainRequest, get_method
 from bimanualshift.rollout.loop import KEYFRAME_BUDGET
 from bimanualshift.utils.io import atomic_write_json, atomic_write_text
 from bimanualshift.utils.jsonl import append_record, read_records
@@ -150,19 +151,26 @@ REFINEMENT_FIELDS = ("scenes", "policy_successes", "corrected_successes", "corre
                      "inserted_into_memory", "memory_entries", "best")
 
 
+def _run_records(cfg: BenchConfig, tasks: list[str], folder: Callable[[MethodSpec], str | None],
+                 fields: tuple[str, ...], marker: str) -> dict[str, dict[str, Any]]:
+    """Per "task/method": ``fields`` of the summary.json in the method's run folder ``folder(spec)`` (under
+    runs/<task>/; None: the method has no such folder), for summaries holding ``marker``."""
+    out = {}
+    for task in tasks:
+        for method in cfg.methods:
+            name = folder(get_method(method))
+            path = Path(cfg.runs) / task / str(name) / "summary.json"
+            if name is not None and path.is_file() and marker in (summary := json.loads(path.read_text())):
+                out[f"{task}/{method}"] = {k: summary.get(k) for k in fields}
+    return out
+
+
 def refinement_records(cfg: BenchConfig, tasks: list[str]) -> dict[str, dict[str, Any]]:
     """Per "task/method" that was refined: its rollouts on training scenes, the failures the expert corrected into
     successes, the correction samples, the memory entries added and the fine-tuning step kept (from the run's
     refine/summary.json)."""
-    out = {}
-    for task in tasks:
-        for method in (m for m in cfg.methods if get_method(m).refine):
-            spec = get_method(method)
-            path = Path(cfg.runs) / task / spec.run_name / spec.refine_folder / "summary.json"
-            if path.is_file():
-                summary = json.loads(path.read_text())
-                out[f"{task}/{method}"] = {k: summary.get(k) for k in REFINEMENT_FIELDS}
-    return out
+    return _run_records(cfg, tasks, lambda spec: f"{spec.run_name}/{spec.refine_folder}" if spec.refine else None,
+                        REFINEMENT_FIELDS, "scenes")
 
 
 TRAINING_FIELDS = ("best", "stopped_early_at", "validation_translation_error", "output_gate")
@@ -172,15 +180,7 @@ def training_records(cfg: BenchConfig, tasks: list[str]) -> dict[str, dict[str, 
     """Per "task/method" trained by the residual trainer: the checkpoint it handed on (step, validation value),
     its validation translation error (prior alone and with the residual, overall and per keyframe) and the
     output gate's factors (from the run's summary.json; runs/ is not committed, this keeps them with the table)."""
-    out = {}
-    for task in tasks:
-        for method in cfg.methods:
-            path = Path(cfg.runs) / task / get_method(method).run_name / "summary.json"
-            if path.is_file():
-                summary = json.loads(path.read_text())
-                if "validation_translation_error" in summary:
-                    out[f"{task}/{method}"] = {k: summary.get(k) for k in TRAINING_FIELDS}
-    return out
+    return _run_records(cfg, tasks, lambda spec: spec.run_name, TRAINING_FIELDS, "validation_translation_error")
 
 
 def carried_records(summary: Path, field: str, fresh: dict[str, dict[str, Any]], episodes: list[dict[str, Any]]
