@@ -109,11 +109,14 @@ def _residual_method(name: str, description: str, refine: bool = True, trains_as
         if not refine:
             return best
         refined = Path(request.out) / refine_folder
+        # a variant refining the shared run differently reuses the full method's rollouts where they exist
+        shared = Path(request.out) / REFINE_FOLDER
+        scenes_from = str(shared) if refined != shared and (shared / "refine_config.json").is_file() else ""
         return _finished(refined) or run_refinement(RefineConfig(
             checkpoint=str(best), out=str(refined), start=request.demos, seed=request.seed,
             episodes=int(request.overrides.get("refine_episodes", REFINE_EPISODES)),
             steps=int(request.overrides.get("refine_steps", RefineConfig.steps)), workers=request.workers,
-            memory_insert=refine_memory))
+            memory_insert=refine_memory, scenes_from=scenes_from))
 
     def load(checkpoint: Path | None, request: TrainRequest) -> Policy:
         from bimanualshift.methods.bimanualshift import load_bimanualshift

@@ -212,3 +212,24 @@ def test_refinement_adds_to_the_memory_only_the_successes_memory_insert_names(tr
         bank = MemoryBank.load(best / MEMORY_FILE)
         assert len(bank) == len(bank_before) + expected
         assert all(e.source == "refinement" for e in bank.entries[len(bank_before):])
+
+
+def test_scenes_from_reuses_rollouts_of_the_same_checkpoint_and_refuses_others(trained: Path, tmp_path: Path) -> None:
+    from bimanualshift.training.refine import reuse_scenes
+
+    source = tmp_path / "source"
+    (source / "scenes").mkdir(parents=True)
+    base = RefineConfig(checkpoint=str(trained), out=str(source), episodes=2, start=5, max_keyframes=2)
+    (source / "refine_config.json").write_text(json.dumps({**vars(base)}))
+    (source / "scenes" / "seed_000005.safetensors").write_bytes(b"scene 5")
+    variant = replace(base, out=str(tmp_path / "variant"), memory_insert="none", scenes_from=str(source))
+    (tmp_path / "variant" / "scenes").mkdir(parents=True)
+    (tmp_path / "variant" / "scenes" / "seed_000006.safetensors").write_bytes(b"own scene 6")
+    assert reuse_scenes(variant) == 1  # only the scene it lacks
+    assert (tmp_path / "variant" / "scenes" / "seed_000005.safetensors").read_bytes() == b"scene 5"
+    assert (tmp_path / "variant" / "scenes" / "seed_000006.safetensors").read_bytes() == b"own scene 6"
+    assert reuse_scenes(variant) == 0
+    with pytest.raises(ValueError, match="differ from this refinement's in start"):
+        reuse_scenes(replace(variant, start=7))
+    with pytest.raises(FileNotFoundError, match="no refine_config.json"):
+        reuse_scenes(replace(variant, scenes_from=str(tmp_path / "nowhere")))

@@ -207,3 +207,7 @@ class RefineConfig:
     # "corrected" (only those the expert corrected: a reference from the policy's own success repeats where the
     # policy already goes) or "none" (the memory keeps the demos alone)
     memory_insert: Literal["all", "corrected", "none"] = "all"
+    # another refinement folder whose scenes were rolled out from the same checkpoint with the same rollout
+    # settings: its finished scenes are reused instead of rolled out again (variants differing only after the
+    # rollouts, such as memory_insert, share them)
+    scenes_from: str = ""

@@ -17,6 +17,7 @@ the shared resumable loop.
 from __future__ import annotations
 
 import json
+import shutil
 import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -180,12 +181,43 @@ def refine_scene_job(job: tuple[dict[str, Any], str, int, str]) -> int:
     return seed
 
 
+# what a scene's rollout depends on: scenes agreeing on these are the same rollouts
+ROLLOUT_SETTINGS = ("checkpoint", "episodes", "start", "max_keyframes", "tolerance_m", "tolerance_deg")
+
+
+def reuse_scenes(cfg: RefineConfig) -> int:
+    """Copy into ``out/scenes`` the finished scenes of ``cfg.scenes_from`` that this refinement lacks; that folder's
+    rollouts must come from the same checkpoint and rollout settings. Returns the number copied."""
+    source = Path(cfg.scenes_from)
+    config = source / "refine_config.json"
+    if not config.is_file():
+        raise FileNotFoundError(f"--scenes-from {source}: no refine_config.json there; name a folder written by "
+                                "`bimanualshift refine`")
+    theirs = read_json_file(config)
+    differ = [k for k in ROLLOUT_SETTINGS if theirs.get(k) != getattr(cfg, k)]
+    if differ:
+        raise ValueError(f"--scenes-from {source}: its rollouts differ from this refinement's in {', '.join(differ)} "
+                         f"({', '.join(f'{k}={theirs.get(k)!r} there, {getattr(cfg, k)!r} here' for k in differ)}); "
+                         "roll the scenes out again without --scenes-from")
+    scenes = Path(cfg.out) / "scenes"
+    scenes.mkdir(parents=True, exist_ok=True)
+    copied = 0
+    for path in sorted((source / "scenes").glob("seed_*.safetensors")):
+        if not (scenes / path.name).is_file():
+            with atomic_writer(scenes / path.name) as tmp:
+                shutil.copyfile(path, tmp)
+            copied += 1
+    return copied
+
+
 def collect_refinement(cfg: RefineConfig, policy: BimanualShift, task: str, in_process: bool = False) -> list[Path]:
     """Roll out and correct every scene not yet done; one safetensors file per scene under ``out/scenes``.
     Scenes are independent (the policy and its memory stay fixed until all are done), so ``cfg.workers``
     processes roll them out in parallel with the same result as one. Workers rebuild the policy from the
     checkpoint; ``in_process`` keeps the rollouts on ``policy`` itself (one holding parts the checkpoint
     does not name, such as a caller's own text encoder)."""
+    if cfg.scenes_from:
+        reuse_scenes(cfg)
     scenes = Path(cfg.out) / "scenes"
     scenes.mkdir(parents=True, exist_ok=True)
     seeds = split_seeds("train", cfg.episodes, cfg.start)
