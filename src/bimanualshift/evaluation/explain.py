@@ -10,7 +10,6 @@ episode also says whether the policy moved that arm first (a role swap otherwise
 
 from __future__ import annotations
 
-import gzip
 import json
 from collections import Counter
 from dataclasses import dataclass
@@ -166,13 +165,6 @@ def explained_seeds(folder: str | Path, task: str) -> dict[str, list[int]]:
                             if e["task"] == task})}
 
 
-def _log_records(path: Path) -> list[dict[str, Any]]:
-    if path.suffix != ".gz":
-        return read_records(path)
-    with gzip.open(path, "rt") as f:
-        return [json.loads(line) for line in f if line.strip()]
-
-
 def explain_rows(folder: str | Path, task: str, methods: list[str] | None = None, against: str | None = None
                  ) -> list[dict[str, Any]]:
     """One row per method of ``task`` in bench folder ``folder``: episodes, failures, the stages failures reached,
@@ -189,7 +181,7 @@ def explain_rows(folder: str | Path, task: str, methods: list[str] | None = None
                                 "episodes.jsonl to log them)")
     episodes = {(e["task"], e["method"], e.get("perturbation", "none"), e["seed"]): e
                 for e in read_records(folder / "episodes.jsonl")}
-    logs = {(r["task"], r["method"], r.get("perturbation", "none"), r["seed"]): r["steps"] for r in _log_records(log)}
+    logs = {(r["task"], r["method"], r.get("perturbation", "none"), r["seed"]): r["steps"] for r in read_records(log)}
     keys = [k for k in episodes if k[0] == task and k in logs]
     if not keys:
         known = sorted({k[0] for k in logs})

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import gzip
 import json
 import os
 from pathlib import Path
@@ -9,12 +10,14 @@ from typing import Any
 
 
 def read_records(path: str | Path) -> list[dict[str, Any]]:
-    """Finished records of an earlier run; a line cut short by a kill is ignored (that record is redone)."""
+    """Finished records of an earlier run; a line cut short by a kill is ignored (that record is redone). A
+    ``.gz`` log (an archived folder's) is read the same way."""
     path = Path(path)
     if not path.is_file():
         return []
     records = []
-    for line in path.read_text().splitlines():
+    text = gzip.decompress(path.read_bytes()).decode() if path.suffix == ".gz" else path.read_text()
+    for line in text.splitlines():
         try:
             records.append(json.loads(line))
         except json.JSONDecodeError:
