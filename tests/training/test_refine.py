@@ -46,6 +46,10 @@ def test_strays_on_position_angle_and_gripper() -> None:
     assert strays(_row([0.54, 0.0, 1.0]), expert, 0.03, 20.0)
     assert strays(_row([0.5, 0.0, 1.0], 30.0), expert, 0.03, 20.0)
     assert strays(_row([0.5, 0.0, 1.0], gripper=0.0), expert, 0.03, 20.0)
+    # a half turn about the approach axis is the same grasp; a quarter turn is not
+    assert not strays(_row([0.5, 0.0, 1.0], 180.0), expert, 0.03, 20.0)
+    assert not strays(_row([0.5, 0.0, 1.0], -170.0), expert, 0.03, 20.0)
+    assert strays(_row([0.5, 0.0, 1.0], 90.0), expert, 0.03, 20.0)
 
 
 @pytest.fixture(scope="module")

@@ -3,8 +3,8 @@
 Every evaluated episode's keyframes are logged with the scripted expert's action at the same index on the same
 seed (``rollout.keyframe_row``). A failed episode is summarised by the stage it reached and its first divergence:
 the first keyframe at which an arm's executed action strays from the expert's (the refinement's tolerances:
-3 cm, 20 degrees, or the other gripper state; unlike refinement's check, a gripper turned a half turn about its
-approach axis counts as the same grasp), and which arm it was. Where the expert leads with one arm, an
+3 cm, 20 degrees, or the other gripper state; as there, a gripper turned a half turn about its approach axis
+counts as the same grasp), and which arm it was. Where the expert leads with one arm, an
 episode also says whether the policy moved that arm first (a role swap otherwise).
 """
 

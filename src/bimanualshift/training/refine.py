@@ -3,8 +3,8 @@
 1. Roll the trained policy out on training scenes (train-split seeds, never validation or test).
 2. A success is a verified execution: it goes into the memory bank M.
 3. A failure is replayed from the same scene with the scripted expert as the human corrector: at every
-   keyframe where an arm's action strays from the expert's (beyond a position / angle tolerance, or the
-   gripper disagrees) the expert's action for that arm is executed instead, and the step becomes a
+   keyframe where an arm's action strays from the expert's (beyond a position / angle tolerance, a half turn
+   about the gripper's approach axis counting as none, or the gripper disagrees) the expert's action for that arm is executed instead, and the step becomes a
    correction sample with target r* = a_corr - a_base (Eq. 10), a_base being the frozen prior's action.
    A corrected run that succeeds is inserted into M as well.
 4. The residual branch (Manager, Z, G) is fine-tuned on L_BC over the demos + lambda * L_corr over the
@@ -33,7 +33,7 @@ from bimanualshift.data.episode import list_episodes
 from bimanualshift.data.frames import KeyframeObservation
 from bimanualshift.data.seeds import split_seeds
 from bimanualshift.encoders.text import TextEncoder
-from bimanualshift.geometry.frames import rotation_difference
+from bimanualshift.geometry.frames import gripper_angle_deg, rotation_difference
 from bimanualshift.memory.bank import MemoryBank, MemoryEntry
 from bimanualshift.methods.bimanualshift import MEMORY_FILE, BimanualShift, load_bimanualshift, save_residual
 from bimanualshift.residual.output_gate import choose_output_scale, reset_output_scale
@@ -75,9 +75,11 @@ def arm_frame_action(decision_frame: Any, row: np.ndarray) -> tuple[np.ndarray, 
 
 
 def strays(policy_row: np.ndarray, expert_row: np.ndarray, tolerance_m: float, tolerance_deg: float) -> bool:
-    """Whether one arm's world-frame action differs from the corrector's beyond the tolerances."""
+    """Whether one arm's world-frame action differs from the corrector's beyond the tolerances. A gripper turned
+    a half turn about its approach axis holds the same grasp (its two fingers are alike), so that alone is no
+    failure to correct: the same test ``bimanualshift explain`` applies."""
     position = np.linalg.norm(policy_row[:3] - expert_row[:3]) > tolerance_m
-    angle = np.degrees(np.linalg.norm(rotation_difference(expert_row[3:7], policy_row[3:7]))) > tolerance_deg
+    angle = gripper_angle_deg(policy_row[3:7], expert_row[3:7]) > tolerance_deg
     gripper = (policy_row[7] > 0.5) != (expert_row[7] > 0.5)
     return bool(position or angle or gripper)
 
