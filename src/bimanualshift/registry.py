@@ -88,12 +88,15 @@ def _finished(run: Path) -> Path | None:
 
 
 def _residual_method(name: str, description: str, refine: bool = True, trains_as: str = "", role: str = "method",
-                     refine_memory: str = "all", **switches: Any) -> MethodSpec:
+                     refine_memory: str = "all", refine_validation: int = 0, **switches: Any) -> MethodSpec:
     """BimanualShift trained with ``switches`` (TrainConfig fields) on top of the request, then (``refine``)
     refined on training scenes: the method as the paper runs it. ``refine_memory`` picks the successes refinement
-    adds to the memory (RefineConfig.memory_insert); any other choice than the paper's "all" refines in a folder
-    of its own."""
+    adds to the memory (RefineConfig.memory_insert); ``refine_validation`` > 0 also rolls out that many validation
+    scenes whose corrections help pick the fine-tuning step (RefineConfig.validation_episodes). Any other choice
+    than the paper's ("all", 0) refines in a folder of its own."""
     refine_folder = REFINE_FOLDER if refine_memory == "all" else f"{REFINE_FOLDER}_{refine_memory}"
+    if refine_validation:
+        refine_folder += f"_validated{refine_validation}"
 
     def train(request: TrainRequest) -> Path:
         from bimanualshift.training.configs import RefineConfig, TrainConfig
@@ -116,7 +119,7 @@ def _residual_method(name: str, description: str, refine: bool = True, trains_as
             checkpoint=str(best), out=str(refined), start=request.demos, seed=request.seed,
             episodes=int(request.overrides.get("refine_episodes", REFINE_EPISODES)),
             steps=int(request.overrides.get("refine_steps", RefineConfig.steps)), workers=request.workers,
-            memory_insert=refine_memory, scenes_from=scenes_from))
+            memory_insert=refine_memory, scenes_from=scenes_from, validation_episodes=refine_validation))
 
     def load(checkpoint: Path | None, request: TrainRequest) -> Policy:
         from bimanualshift.methods.bimanualshift import load_bimanualshift
@@ -161,6 +164,11 @@ register_method(_residual_method(
     "fixed_memory", "variant: the full method whose refinement fine-tunes on the corrections and adds nothing to "
     "the memory, which keeps the demos alone (compare with bimanualshift and no_refinement on validation seeds)",
     trains_as="bimanualshift", retrieval=True, refine_memory="none"))
+register_method(_residual_method(
+    "validated_refinement", "variant: the full method whose refinement also rolls out 10 validation scenes; their "
+    "corrections join the validation loss that picks the fine-tuning step, which the demos' L_BC alone sets back to "
+    "the unrefined weights on most tasks (compare with bimanualshift and no_refinement on validation seeds)",
+    trains_as="bimanualshift", retrieval=True, refine_validation=10))
 register_method(_residual_method(
     "paper_literal", "ablation: the residual moves translation and rotation only (Eq. 4 as written: no gripper "
     "residual, no hold)", retrieval=True, paper_literal=True, role="ablation"))

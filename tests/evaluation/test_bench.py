@@ -297,10 +297,11 @@ def test_records_of_runs_no_longer_on_disk_are_carried_from_the_earlier_summary(
 def test_memory_variants_share_the_full_method_s_training_and_refine_in_folders_of_their_own(tmp_path: Path) -> None:
     from bimanualshift.evaluation.bench import refinement_records
 
-    names = ("bimanualshift", "corrections_memory", "fixed_memory")
+    names = ("bimanualshift", "corrections_memory", "fixed_memory", "validated_refinement")
     specs = [get_method(m) for m in names]
     assert {s.run_name for s in specs} == {"bimanualshift"}
-    assert [s.refine_folder for s in specs] == [REFINE_FOLDER, f"{REFINE_FOLDER}_corrected", f"{REFINE_FOLDER}_none"]
+    assert [s.refine_folder for s in specs] == [REFINE_FOLDER, f"{REFINE_FOLDER}_corrected", f"{REFINE_FOLDER}_none",
+                                                f"{REFINE_FOLDER}_validated10"]
     for inserted, spec in enumerate(specs):
         folder = tmp_path / "lift_ball" / "bimanualshift" / spec.refine_folder
         folder.mkdir(parents=True)

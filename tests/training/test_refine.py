@@ -142,7 +142,7 @@ def test_scenes_rolled_out_in_two_workers_match_one(trained: Path, tmp_path: Pat
     for workers in (1, 2):
         cfg = RefineConfig(checkpoint=str(trained), out=str(tmp_path / f"w{workers}"), episodes=2, start=5,
                            max_keyframes=2, workers=workers)
-        paths = collect_refinement(cfg, policy, "push_two_buttons")
+        paths = collect_refinement(cfg, policy, "push_two_buttons")["train"]
         assert [p.name for p in paths] == ["seed_000005.safetensors", "seed_000006.safetensors"]
         files[workers] = paths
     for one, two in zip(files[1], files[2]):
@@ -164,7 +164,7 @@ def test_a_policy_with_parts_the_checkpoint_does_not_name_rolls_out_in_this_proc
     policy = load_bimanualshift(trained, default_text_encoder())
     cfg = RefineConfig(checkpoint=str(trained), out=str(tmp_path), episodes=2, start=5, max_keyframes=1, workers=2)
     paths = collect_refinement(cfg, policy, "push_two_buttons", in_process=True)
-    assert all(p.is_file() for p in paths)
+    assert paths["validation"] == [] and all(p.is_file() for p in paths["train"])
     with pytest.raises(AssertionError, match="rolled out in workers"):  # the same scenes, not done yet, go to workers
         collect_refinement(replace(cfg, out=str(tmp_path / "again")), policy, "push_two_buttons")
 
@@ -237,3 +237,47 @@ def test_scenes_from_reuses_rollouts_of_the_same_checkpoint_and_refuses_others(t
         reuse_scenes(replace(variant, start=7))
     with pytest.raises(FileNotFoundError, match="no refine_config.json"):
         reuse_scenes(replace(variant, scenes_from=str(tmp_path / "nowhere")))
+
+
+def test_validation_scenes_corrections_pick_the_fine_tuning_step_and_stay_out_of_the_memory(
+        trained: Path, tmp_path: Path) -> None:
+    bank_before = MemoryBank.load(trained / MEMORY_FILE)
+    # tolerance 0: every arm strays at every keyframe, so the validation scene yields corrections for sure
+    cfg = RefineConfig(checkpoint=str(trained), out=str(tmp_path), episodes=1, start=5, max_keyframes=2, steps=4,
+                       checkpoint_every=2, tolerance_m=0.0, tolerance_deg=0.0, validation_episodes=1,
+                       validation_start=7, lambda_corr=0.5)
+    best = refine(cfg)
+    assert [p.name for p in (tmp_path / "validation_scenes").glob("*.safetensors")] == ["seed_100007.safetensors"]
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["validation_scenes"] == 1 and summary["validation_correction_samples"] > 0
+    values = {}
+    for row in summary["history"]:  # Eq. 13's weighting on the held-out scenes, at every checkpoint and step 0
+        assert row["validation"] == pytest.approx(row["validation_demos_value"]
+                                                  + 0.5 * row["validation_correction_value"])
+        values[row["step"]] = row["validation"]
+    assert set(values) == {0, 2, 4}
+    assert summary["best"]["value"] == pytest.approx(min(values.values()))
+    # only the training scene's success may join the memory, never a validation scene's
+    bank = MemoryBank.load(best / MEMORY_FILE)
+    assert len(bank) == len(bank_before) + summary["inserted_into_memory"]
+    assert summary["inserted_into_memory"] <= summary["scenes"]
+    assert all(e.seed < 100_000 for e in bank.entries[len(bank_before):])
+
+
+def test_scenes_from_copies_validation_scenes_only_from_the_same_validation_seeds(trained: Path,
+                                                                                 tmp_path: Path) -> None:
+    from bimanualshift.training.refine import reuse_scenes
+
+    source = tmp_path / "source"
+    base = RefineConfig(checkpoint=str(trained), out=str(source), episodes=1, start=5, validation_episodes=1,
+                        validation_start=7)
+    for folder, seed in (("scenes", 5), ("validation_scenes", 100_007)):
+        (source / folder).mkdir(parents=True)
+        (source / folder / f"seed_{seed:06d}.safetensors").write_bytes(folder.encode())
+    (source / "refine_config.json").write_text(json.dumps({**vars(base)}))
+    same = replace(base, out=str(tmp_path / "same"), scenes_from=str(source))
+    assert reuse_scenes(same) == 2
+    assert (tmp_path / "same" / "validation_scenes" / "seed_100007.safetensors").read_bytes() == b"validation_scenes"
+    other = replace(same, out=str(tmp_path / "other"), validation_start=8)
+    assert reuse_scenes(other) == 1  # its validation scene is another seed: rolled out anew
+    assert not list((tmp_path / "other" / "validation_scenes").glob("*.safetensors"))

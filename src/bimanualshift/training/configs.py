@@ -211,3 +211,9 @@ class RefineConfig:
     # settings: its finished scenes are reused instead of rolled out again (variants differing only after the
     # rollouts, such as memory_insert, share them)
     scenes_from: str = ""
+    # validation scenes rolled out and corrected the same way (validation-split seeds from validation_start: past
+    # the validation demos', short of the benchmark's validation rollouts at 10,000): their corrections join the
+    # validation loss that picks the fine-tuning step (Eq. 13 on held-out scenes); their successes stay out of the
+    # memory. 0: the step is picked on the validation demos' L_BC alone
+    validation_episodes: int = 0
+    validation_start: int = 5_000

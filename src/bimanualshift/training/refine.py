@@ -1,14 +1,17 @@
 """Retrieval-conditioned residual refinement (paper §III-C, Eq. 10-11, 13): `bimanualshift refine`.
 
-1. Roll the trained policy out on training scenes (train-split seeds, never validation or test).
+1. Roll the trained policy out on training scenes (train-split seeds, never test), and with
+   ``validation_episodes`` on validation scenes too: those only pick the fine-tuning step (5.).
 2. A success is a verified execution: it goes into the memory bank M.
 3. A failure is replayed from the same scene with the scripted expert as the human corrector: at every
    keyframe where an arm's action strays from the expert's (beyond a position / angle tolerance, a half turn
-   about the gripper's approach axis counting as none, or the gripper disagrees) the expert's action for that arm is executed instead, and the step becomes a
-   correction sample with target r* = a_corr - a_base (Eq. 10), a_base being the frozen prior's action.
-   A corrected run that succeeds is inserted into M as well.
+   about the gripper's approach axis counting as none, or the gripper disagrees) the expert's action for that
+   arm is executed instead, and the step becomes a correction sample with target r* = a_corr - a_base
+   (Eq. 10), a_base being the frozen prior's action. A corrected run that succeeds is inserted into M as well.
 4. The residual branch (Manager, Z, G) is fine-tuned on L_BC over the demos + lambda * L_corr over the
    correction samples (Eq. 11, 13); the prior and the projection stay frozen.
+5. The fine-tuning step handed on is the one with the lowest validation loss: the validation demos' L_BC, plus
+   lambda times the validation scenes' corrections' when there are any (step 0, the trained weights, competes).
 
 Rollouts are checkpointed per scene (a killed run keeps the scenes it finished) and the fine-tuning uses
 the shared resumable loop.
@@ -185,6 +188,9 @@ def refine_scene_job(job: tuple[dict[str, Any], str, int, str]) -> int:
 
 # what a scene's rollout depends on: scenes agreeing on these are the same rollouts
 ROLLOUT_SETTINGS = ("checkpoint", "episodes", "start", "max_keyframes", "tolerance_m", "tolerance_deg")
+# the folders under a refinement's ``out``: training scenes (corrections to learn, successes for the memory) and
+# validation scenes (corrections that pick the fine-tuning step)
+SCENE_FOLDERS = {"train": "scenes", "validation": "validation_scenes"}
 
 
 def reuse_scenes(cfg: RefineConfig) -> int:
@@ -201,30 +207,45 @@ def reuse_scenes(cfg: RefineConfig) -> int:
         raise ValueError(f"--scenes-from {source}: its rollouts differ from this refinement's in {', '.join(differ)} "
                          f"({', '.join(f'{k}={theirs.get(k)!r} there, {getattr(cfg, k)!r} here' for k in differ)}); "
                          "roll the scenes out again without --scenes-from")
-    scenes = Path(cfg.out) / "scenes"
-    scenes.mkdir(parents=True, exist_ok=True)
     copied = 0
-    for path in sorted((source / "scenes").glob("seed_*.safetensors")):
-        if not (scenes / path.name).is_file():
-            with atomic_writer(scenes / path.name) as tmp:
-                shutil.copyfile(path, tmp)
-            copied += 1
+    for split, folder in SCENE_FOLDERS.items():
+        if split == "validation" and (theirs.get("validation_start") != cfg.validation_start
+                                      or not theirs.get("validation_episodes")):
+            continue  # validation scenes are seeded by validation_start; those rolled out elsewhere are others
+        scenes = Path(cfg.out) / folder
+        scenes.mkdir(parents=True, exist_ok=True)
+        wanted = {f"seed_{seed:06d}.safetensors" for seed in _split_scenes(cfg, split)}
+        for path in sorted((source / folder).glob("seed_*.safetensors")):
+            if path.name in wanted and not (scenes / path.name).is_file():
+                with atomic_writer(scenes / path.name) as tmp:
+                    shutil.copyfile(path, tmp)
+                copied += 1
     return copied
 
 
-def collect_refinement(cfg: RefineConfig, policy: BimanualShift, task: str, in_process: bool = False) -> list[Path]:
-    """Roll out and correct every scene not yet done; one safetensors file per scene under ``out/scenes``.
-    Scenes are independent (the policy and its memory stay fixed until all are done), so ``cfg.workers``
-    processes roll them out in parallel with the same result as one. Workers rebuild the policy from the
-    checkpoint; ``in_process`` keeps the rollouts on ``policy`` itself (one holding parts the checkpoint
-    does not name, such as a caller's own text encoder)."""
+def _split_scenes(cfg: RefineConfig, split: str) -> list[int]:
+    if split == "train":
+        return split_seeds("train", cfg.episodes, cfg.start)
+    return split_seeds("validation", cfg.validation_episodes, cfg.validation_start)
+
+
+def collect_refinement(cfg: RefineConfig, policy: BimanualShift, task: str, in_process: bool = False
+                       ) -> dict[str, list[Path]]:
+    """Roll out and correct every scene not yet done; one safetensors file per scene under ``out/scenes`` (training
+    scenes) and ``out/validation_scenes``; returns each split's files. Scenes are independent (the policy and its
+    memory stay fixed until all are done), so ``cfg.workers`` processes roll them out in parallel with the same
+    result as one. Workers rebuild the policy from the checkpoint; ``in_process`` keeps the rollouts on
+    ``policy`` itself (one holding parts the checkpoint does not name, such as a caller's own text encoder)."""
     if cfg.scenes_from:
         reuse_scenes(cfg)
-    scenes = Path(cfg.out) / "scenes"
-    scenes.mkdir(parents=True, exist_ok=True)
-    seeds = split_seeds("train", cfg.episodes, cfg.start)
-    paths = [scenes / f"seed_{seed:06d}.safetensors" for seed in seeds]
-    todo = [(seed, path) for seed, path in zip(seeds, paths) if not path.is_file()]
+    paths: dict[str, list[Path]] = {}
+    todo: list[tuple[int, Path]] = []
+    for split, folder in SCENE_FOLDERS.items():
+        scenes = Path(cfg.out) / folder
+        scenes.mkdir(parents=True, exist_ok=True)
+        seeds = _split_scenes(cfg, split)
+        paths[split] = [scenes / f"seed_{seed:06d}.safetensors" for seed in seeds]
+        todo += [(seed, path) for seed, path in zip(seeds, paths[split]) if not path.is_file()]
     if cfg.workers > 1 and len(todo) > 1 and not in_process:
         jobs = [(asdict(cfg), task, seed, str(path)) for seed, path in todo]
         run_jobs(refine_scene_job, jobs, workers=min(cfg.workers, len(todo)), desc="refinement rollouts",
@@ -278,8 +299,9 @@ def refine(cfg: RefineConfig, text_encoder: TextEncoder | None = None) -> Path:
 
     # 1-3: rollouts on training scenes, corrections, successes into the (unfrozen) bank.
     # a caller's own text encoder exists only in this process: workers would rebuild the checkpoint's
-    records, corrections, successes = load_scenes(collect_refinement(cfg, policy, task,
-                                                                     in_process=text_encoder is not None))
+    scenes = collect_refinement(cfg, policy, task, in_process=text_encoder is not None)
+    records, corrections, successes = load_scenes(scenes["train"])
+    val_records, val_corrections, _ = load_scenes(scenes["validation"])
     memory = MemoryBank.load(checkpoint / MEMORY_FILE) if policy.memory is not None else None
     inserted = [s for s in successes if cfg.memory_insert == "all"
                 or (cfg.memory_insert == "corrected" and s[0].get("corrected_success"))]
@@ -319,7 +341,14 @@ def refine(cfg: RefineConfig, text_encoder: TextEncoder | None = None) -> Path:
         return {**losses, "correction": corr, "total": losses["total"] + lambda_corr * corr}
 
     def validate(step: int) -> dict[str, float]:
-        return validation_losses(residual, val, weights, trained.select_by)
+        report = validation_losses(residual, val, weights, trained.select_by)
+        if val_corrections is None:
+            return report
+        # Eq. 13 on held-out scenes: the step is picked on how well the residual fits the demos *and* fixes the
+        # policy's own failures, each measured as training picks its checkpoint
+        held_out = validation_losses(residual, val_corrections, weights, trained.select_by)["value"]
+        return {**report, "demos_value": report["value"], "correction_value": held_out,
+                "value": report["value"] + cfg.lambda_corr * held_out}
 
     refine_meta = {**{k: v for k, v in meta.items() if k not in ("type", "residual")},
                    "refined_from": str(checkpoint), "refine_config": asdict(cfg)}
@@ -343,6 +372,9 @@ def refine(cfg: RefineConfig, text_encoder: TextEncoder | None = None) -> Path:
         "policy_successes": sum(r["policy_success"] for r in records),
         "corrected_successes": sum(bool(r.get("corrected_success")) for r in records),
         "correction_samples": 0 if corrections is None else len(corrections.inputs),
+        "validation_scenes": len(val_records),
+        "validation_policy_successes": sum(r["policy_success"] for r in val_records),
+        "validation_correction_samples": 0 if val_corrections is None else len(val_corrections.inputs),
         "memory_entries": None if memory is None else len(memory),
         "inserted_into_memory": len(inserted) if memory is not None else 0,
         **gate,
