@@ -112,6 +112,18 @@ def test_bench_runs_resumes_and_reports(demo_root: Path, tmp_path: Path) -> None
     run_bench(cfg, command="test")
     again = read_episodes(log)
     assert len(again) == 4 and sorted(map(json.dumps, again)) == sorted(map(json.dumps, first))
+    # --rerun: no_residual is rolled out again, its earlier episodes archived; the other method's stay as they were.
+    run_bench(replace(cfg, rerun=["no_residual"]), command="test")
+    archives = list((tmp_path / "out" / "superseded").iterdir())
+    assert [a.name.split("-")[0] for a in archives] == ["no_residual"]
+    assert sorted(map(json.dumps, read_episodes(archives[0] / "episodes.jsonl.gz"))) == sorted(
+        json.dumps(e) for e in first if e["method"] == "no_residual")
+    rerun = read_episodes(log)
+    assert [e for e in rerun if e["method"] == "bimanualshift"] == [e for e in first if e["method"] == "bimanualshift"]
+    assert sorted(e["seed"] for e in rerun if e["method"] == "no_residual") == [200000, 200001]
+    run_bench(replace(cfg, rerun=["no_residual"]), command="test")  # the same command again resumes the re-run
+    assert list((tmp_path / "out" / "superseded").iterdir()) == archives and read_episodes(log) == rerun
+    first = rerun
     # Every episode recorded: a rerun on a machine without the run's data or checkpoints trains and collects
     # nothing, and reports the same rows.
     shutil.rmtree(tmp_path / "runs")

@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from bimanualshift import __version__
 from bimanualshift.configs import DEFAULT_PRIOR
 from bimanualshift.data.seeds import split_seeds
 from bimanualshift.evaluation.plots import draw_plots
@@ -65,6 +66,9 @@ class BenchConfig:
     # refined methods (bimanualshift and its ablations but no_refinement) roll out on this many training scenes
     # after the demos' own, the expert correcting their failures, before they are evaluated
     refine_episodes: int = REFINE_EPISODES
+    # methods to run again from scratch after a change to them: their recorded episodes and training runs move to
+    # superseded/ folders named by the commit (evaluation/rerun.py); repeating the command resumes the re-run
+    rerun: list[str] = field(default_factory=list)
 
 
 @dataclass(frozen=True)
@@ -338,6 +342,13 @@ def run_bench(cfg: BenchConfig, command: str | None = None) -> Path:
     if cfg.evaluate_on not in ("test", "validation"):
         raise ValueError(f"evaluate_on must be test or validation, got {cfg.evaluate_on!r}")
     seeds = bench_seeds(cfg)
+    if cfg.rerun:
+        from bimanualshift.evaluation.report import git_commit
+        from bimanualshift.evaluation.rerun import supersede_all
+
+        commit = git_commit()
+        supersede_all(cfg.rerun, cfg.methods, out, cfg.runs, tasks,
+                      commit if commit != "unknown" else f"version-{__version__}")
 
     jobs = []
     from bimanualshift.sim.perturbations import preset
