@@ -178,3 +178,24 @@ def test_explain_splits_episodes_by_the_reference_s_source_and_against_another_m
     assert "refinement: 2 episodes, 1 vs 1 successes, 1 won, 1 lost" in text
     with pytest.raises(ValueError, match="no logged episodes of v on 't'"):
         explain_rows(tmp_path, "t", ["r"], against="v")
+
+
+def test_explain_reports_the_first_keyframe_s_error_and_residual_for_failures_and_successes(tmp_path: Path) -> None:
+    def first(x: float, residual_cm: float) -> dict:
+        return {**_step(0, [_row(x), _row(0.2)], [_row(0.5), _row(0.2)]),
+                "policy": {"arms": [{"arm": "left", "residual_cm": residual_cm}, {"arm": "right", "residual_cm": 1.0}]}}
+
+    # seeds 0-1 succeed 1 cm from the expert; seeds 2-4 fail 10, 20 and 30 cm away
+    offsets = {0: 0.01, 1: 0.01, 2: 0.1, 3: 0.2, 4: 0.3}
+    (tmp_path / "episodes.jsonl").write_text("".join(
+        json.dumps({"task": "t", "method": "m", "seed": s, "success": s < 2, "keyframes": 1, "stages_done": 0}) + "\n"
+        for s in offsets))
+    (tmp_path / "keyframes.jsonl").write_text("".join(
+        json.dumps({"task": "t", "method": "m", "seed": s, "steps": [first(0.5 + dx, 100 * dx + 5)]}) + "\n"
+        for s, dx in offsets.items()))
+    (row,) = explain_rows(tmp_path, "t")
+    assert row["first_keyframe_cm"]["failures"] == {"left error": 20.0, "right error": 0.0, "left residual": 25.0,
+                                                   "right residual": 1.0}
+    assert row["first_keyframe_cm"]["successes"]["left error"] == 1.0
+    assert "first keyframe, failures (median cm from the expert; residual added): left error 20.0" in explain_text(
+        [row], "t")

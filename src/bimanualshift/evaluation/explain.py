@@ -81,6 +81,24 @@ def first_keyframe_error_cm(steps: list[dict[str, Any]], arms: tuple[str, ...] =
             for i, (a, b) in enumerate(zip(executed, expert))}
 
 
+def first_keyframe_summary(logs: list[list[dict[str, Any]]]) -> dict[str, float] | None:
+    """Per arm, the median distance (cm) of the first executed position from the expert's over ``logs``' episodes,
+    and, where the policy logs it, the median size of the residual it added there: a large residual that still
+    lands far from the expert says the prior's proposal was far off and the residual could not carry it."""
+    errors = [e for e in (first_keyframe_error_cm(steps) for steps in logs) if e]
+    if not errors:
+        return None
+    values: dict[str, list[float]] = {}
+    for e in errors:
+        for arm, cm in e.items():
+            values.setdefault(f"{arm} error", []).append(cm)
+    for steps in logs:
+        for a in (steps[0].get("policy") or {}).get("arms", []):
+            if a.get("residual_cm") is not None:
+                values.setdefault(f"{a['arm']} residual", []).append(float(a["residual_cm"]))
+    return {name: round(float(np.median(v)), 1) for name, v in values.items()}
+
+
 def _retrieval(steps: list[dict[str, Any]]) -> dict[str, Any] | None:
     for row in steps:
         found = (row.get("policy") or {}).get("retrieval")
@@ -235,6 +253,10 @@ def explain_rows(folder: str | Path, task: str, methods: list[str] | None = None
                           "first_keyframe_error_cm": first_keyframe_error_cm(logs[k]),
                           "retrieval_source": sources[k],
                           "retrieval_entry": (_retrieval(logs[k]) or {}).get("entry")} for k, d in divergences.items()],
+            # the first keyframe is the one whose expert reference is always valid (later ones drift with the
+            # episode), so it separates a bad start from a later slip
+            "first_keyframe_cm": {"failures": first_keyframe_summary([logs[k] for k in failed]),
+                                  "successes": first_keyframe_summary([logs[k] for k in mine if k not in failed])},
             "held_arm_keyframes": held,
             "held_by_arm_and_stage": {arm: dict(sorted(v.items())) for arm, v in held_by_stage.items()},
             "same_lead_arm": dict(sorted(leads.items())),
@@ -262,6 +284,10 @@ def explain_text(rows: list[dict[str, Any]], task: str) -> str:
             lines.append(f"  stages reached by the failures: {stages}")
             lines.append("  first divergence from the expert (keyframe, arm, what):")
             lines += [f"    {n:3d} x {where}" for where, n in r["first_divergence"].items()]
+        for outcome, cm in r["first_keyframe_cm"].items():
+            if cm:
+                lines.append(f"  first keyframe, {outcome} (median cm from the expert; residual added): "
+                             + ", ".join(f"{name} {v}" for name, v in cm.items()))
         if r["held_arm_keyframes"]:
             lines.append(f"  keyframes with an arm held: {r['held_arm_keyframes']}")
             for arm, stages in r["held_by_arm_and_stage"].items():
