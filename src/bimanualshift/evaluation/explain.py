@@ -92,7 +92,7 @@ def first_keyframe_summary(logs: list[list[dict[str, Any]]]) -> dict[str, float]
     for e in errors:
         for arm, cm in e.items():
             values.setdefault(f"{arm} error", []).append(cm)
-    for steps in logs:
+    for steps in (s for s in logs if s):  # an episode cut off before its first keyframe logs nothing
         for a in (steps[0].get("policy") or {}).get("arms", []):
             if a.get("residual_cm") is not None:
                 values.setdefault(f"{a['arm']} residual", []).append(float(a["residual_cm"]))
