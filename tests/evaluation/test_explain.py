@@ -8,7 +8,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bimanualshift.evaluation.explain import Divergence, explain_rows, explain_text, first_divergence
+from bimanualshift.evaluation.explain import (
+    Divergence,
+    explain_rows,
+    explain_text,
+    explained_seeds,
+    first_divergence,
+)
 
 
 def _row(x: float, gripper: float = 1.0) -> list[float]:
@@ -199,3 +205,8 @@ def test_explain_reports_the_first_keyframe_s_error_and_residual_for_failures_an
     assert row["first_keyframe_cm"]["successes"]["left error"] == 1.0
     assert "first keyframe, failures (median cm from the expert; residual added): left error 20.0" in explain_text(
         [row], "t")
+
+
+def test_explained_seeds_are_the_seeds_the_rows_cover() -> None:
+    rows = [{"method": "a", "seeds": [3, 1]}, {"method": "b", "seeds": [2, 1]}]
+    assert explained_seeds(rows) == {"test": [1, 2, 3]}

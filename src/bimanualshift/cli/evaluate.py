@@ -223,7 +223,7 @@ def explain(args: ExplainArgs) -> None:
         from bimanualshift.evaluation.explain import explained_seeds
         from bimanualshift.evaluation.report import write_result
 
-        write_result(args.out, command_line(), explained_seeds(args.folder, args.task),
+        write_result(args.out, command_line(), explained_seeds(rows),
                      started, rows, notes=f"failures of {args.task} in {args.folder}", folder=args.folder,
                      task=args.task, against=args.against or None)
         print(f"wrote {args.out}")

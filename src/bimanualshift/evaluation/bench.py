@@ -20,7 +20,6 @@ from typing import Any
 
 import numpy as np
 
-from bimanualshift import __version__
 from bimanualshift.configs import DEFAULT_PRIOR
 from bimanualshift.data.seeds import split_seeds
 from bimanualshift.evaluation.plots import draw_plots
@@ -346,9 +345,7 @@ def run_bench(cfg: BenchConfig, command: str | None = None) -> Path:
         from bimanualshift.evaluation.report import git_commit
         from bimanualshift.evaluation.rerun import supersede_all
 
-        commit = git_commit()
-        supersede_all(cfg.rerun, cfg.methods, out, cfg.runs, tasks,
-                      commit if commit != "unknown" else f"version-{__version__}")
+        supersede_all(cfg.rerun, cfg.methods, out, cfg.runs, tasks, git_commit())
 
     jobs = []
     from bimanualshift.sim.perturbations import preset

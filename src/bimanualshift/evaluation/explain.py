@@ -177,10 +177,9 @@ def against_rows(method_keys: list[tuple], episodes: dict[tuple, dict[str, Any]]
     return {"method": other, "by_source": dict(sorted(by_source.items()))}
 
 
-def explained_seeds(folder: str | Path, task: str) -> dict[str, list[int]]:
-    """The test seeds of ``task``'s episodes in ``folder`` (a result file names its seeds)."""
-    return {"test": sorted({int(e["seed"]) for e in read_records(Path(folder) / "episodes.jsonl")
-                            if e["task"] == task})}
+def explained_seeds(rows: list[dict[str, Any]]) -> dict[str, list[int]]:
+    """The test seeds the rows of :func:`explain_rows` cover (a result file names its seeds)."""
+    return {"test": sorted({int(s) for r in rows for s in r["seeds"]})}
 
 
 def explain_rows(folder: str | Path, task: str, methods: list[str] | None = None, against: str | None = None
@@ -243,7 +242,8 @@ def explain_rows(folder: str | Path, task: str, methods: list[str] | None = None
                 cell[0] += int(pair[0] == pair[1])
                 cell[1] += 1
         rows.append({
-            "method": method, "episodes": len(mine), "failures": len(failed),
+            "method": method, "episodes": len(mine), "seeds": sorted({int(k[3]) for k in mine}),
+            "failures": len(failed),
             "failed_at_stage": dict(sorted(Counter(episodes[k].get("stages_done", 0) for k in failed).items())),
             "first_divergence": dict(Counter(f"k{d.keyframe} {d.arm} ({d.what})" if d else "never (too slow)"
                                              for d in divergences.values()).most_common()),

@@ -13,12 +13,15 @@ from typing import Any
 import numpy as np
 import torch
 
+from bimanualshift import __version__
 from bimanualshift.evaluation.stats import SuccessRate, SuccessRow
 from bimanualshift.rollout.loop import EpisodeRecord
 from bimanualshift.utils.io import atomic_write_json
 
 
 def git_commit() -> str:
+    """The commit the code runs from (``-dirty`` when code or configuration changed), or, for an installed
+    package outside a git checkout, ``version-<package version>``."""
     try:
         out = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True, check=True,
                              cwd=Path(__file__).resolve().parent)
@@ -27,7 +30,7 @@ def git_commit() -> str:
                                capture_output=True, text=True, cwd=Path(__file__).resolve().parent).stdout.strip()
         return out.stdout.strip() + ("-dirty" if dirty else "")
     except (OSError, subprocess.CalledProcessError):
-        return "unknown"
+        return f"version-{__version__}"
 
 
 def machine() -> str:
