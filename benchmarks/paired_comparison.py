@@ -2,10 +2,13 @@
 
     .venv/bin/python benchmarks/paired_comparison.py results/residual_space/gripper_down_quaternions \
         --methods balanced_residual gripper_down_quaternions
+    .venv/bin/python benchmarks/paired_comparison.py results/generalisation/perturbations \
+        --methods bimanualshift peract_lf --perturbation all
 
 Both methods roll out the same seeds, so the episodes where they disagree carry the whole difference: per task and
 over all tasks, how many each one wins and the exact two-sided sign test's p (``evaluation.stats``). Reads the
-folder's ``episodes.jsonl``; nothing is rolled out.
+folder's ``episodes.jsonl``; nothing is rolled out. ``--perturbation`` picks the episodes of one perturbation
+(``none``, the default, for a folder without perturbations) or ``all`` of them, one row per task and perturbation.
 """
 
 from __future__ import annotations
@@ -25,6 +28,8 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("folder", help="a bench result folder holding episodes.jsonl")
     parser.add_argument("--methods", nargs=2, required=True, metavar=("A", "B"))
+    parser.add_argument("--perturbation", default="none",
+                        help="the perturbation whose episodes are paired, or `all` (default: none)")
     parser.add_argument("--out", default="", help="result file (default: FOLDER/paired_A_vs_B.json)")
     args = parser.parse_args()
     started = time.time()
@@ -32,10 +37,18 @@ def main() -> None:
     if not path.is_file():
         sys.exit(f"error: {path} does not exist: pass a folder written by `bimanualshift bench` or `study`")
     a, b = args.methods
+    # a task's key is "task" for one perturbation, "task (perturbation)" for all of them
     success: dict[tuple[str, str, int], bool] = {}
+    perturbations = set()
     for row in read_records(path):  # a line cut short by a study still writing is skipped
-        if row["method"] in (a, b) and row.get("perturbation", "none") == "none":
-            success[(row["method"], row["task"], int(row["seed"]))] = bool(row["success"])
+        perturbation = row.get("perturbation", "none")
+        perturbations.add(perturbation)
+        if row["method"] in (a, b) and args.perturbation in ("all", perturbation):
+            task = row["task"] if args.perturbation != "all" else f"{row['task']} ({perturbation})"
+            success[(row["method"], task, int(row["seed"]))] = bool(row["success"])
+    if not success and args.perturbation not in perturbations:
+        sys.exit(f"error: no episode of perturbation {args.perturbation!r} in {path}; it holds "
+                 f"{', '.join(sorted(perturbations))} (or pass --perturbation all)")
     tasks = sorted({task for method, task, _ in success if method == a})
     rows, seeds, flags_a, flags_b = [], {}, [], []
     for task in tasks:
@@ -49,6 +62,7 @@ def main() -> None:
         rows.append({"task": task, **_row(a, b, task_a, task_b)})
     if not rows:
         sys.exit(f"error: {a} and {b} share no seed in {path}: check the method names")
+    # "all" pools every row's pairs: the sign test counts a seed once per task and perturbation
     rows.append({"task": "all", **_row(a, b, flags_a, flags_b)})
     for row in rows:
         print(f"{row['task']}: {row['pairs']} pairs, {a} wins {row[f'{a}_wins']}, {b} wins {row[f'{b}_wins']}, "
@@ -56,7 +70,8 @@ def main() -> None:
     out = args.out or str(Path(args.folder) / f"paired_{a}_vs_{b}.json")
     command = " ".join(["python benchmarks/paired_comparison.py", *(shlex.quote(x) for x in sys.argv[1:])])
     write_result(out, command, seeds, started, rows,
-                 notes=f"episodes of {path} where both methods ran the seed; wins: episodes one method solved and "
+                 notes=f"episodes of {path} (perturbation {args.perturbation}) where both methods ran the seed; "
+                       "wins: episodes one method solved and "
                        "the other did not; p: exact two-sided sign test")
     print(f"wrote {out}")
 

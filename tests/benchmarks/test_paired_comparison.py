@@ -1,0 +1,48 @@
+"""benchmarks/paired_comparison.py pairs two methods' episodes on the same seeds (and perturbations)."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[2]
+SCRIPT = ROOT / "benchmarks" / "paired_comparison.py"
+
+
+def _write_episodes(folder: Path) -> None:
+    rows = []
+    # on "none" a wins seeds 0 and 1, b wins none; on "glare" b wins seed 2
+    for perturbation, a_flags, b_flags in (("none", [1, 1, 1], [0, 0, 1]), ("glare", [0, 1, 0], [0, 1, 1])):
+        for method, flags in (("a", a_flags), ("b", b_flags)):
+            rows += [{"task": "t", "method": method, "perturbation": perturbation, "seed": seed, "success": bool(f)}
+                     for seed, f in enumerate(flags)]
+    folder.mkdir(parents=True)
+    (folder / "episodes.jsonl").write_text("".join(json.dumps(r) + "\n" for r in rows))
+
+
+def _run(*args: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([sys.executable, str(SCRIPT), *args], capture_output=True, text=True, cwd=ROOT)
+
+
+def test_pairs_one_perturbation_or_all(tmp_path: Path) -> None:
+    _write_episodes(tmp_path / "f")
+    done = _run(str(tmp_path / "f"), "--methods", "a", "b", "--out", str(tmp_path / "none.json"))
+    assert done.returncode == 0, done.stderr
+    rows = {r["task"]: r for r in json.loads((tmp_path / "none.json").read_text())["rows"]}
+    assert (rows["t"]["pairs"], rows["t"]["a_wins"], rows["t"]["b_wins"]) == (3, 2, 0)
+
+    done = _run(str(tmp_path / "f"), "--methods", "a", "b", "--perturbation", "all",
+                "--out", str(tmp_path / "all.json"))
+    assert done.returncode == 0, done.stderr
+    rows = {r["task"]: r for r in json.loads((tmp_path / "all.json").read_text())["rows"]}
+    assert (rows["t (glare)"]["a_wins"], rows["t (glare)"]["b_wins"]) == (0, 1)
+    assert (rows["all"]["pairs"], rows["all"]["a_wins"], rows["all"]["b_wins"]) == (6, 2, 1)
+
+
+def test_an_unknown_perturbation_names_the_ones_recorded(tmp_path: Path) -> None:
+    _write_episodes(tmp_path / "f")
+    done = _run(str(tmp_path / "f"), "--methods", "a", "b", "--perturbation", "fog")
+    assert done.returncode != 0
+    assert "glare, none" in done.stderr and "Traceback" not in done.stderr
