@@ -13,7 +13,7 @@ import pytest
 from bimanualshift.evaluation.bench import BenchConfig, bench_rows, read_episodes, run_bench
 from bimanualshift.evaluation.explain import explain_rows
 from bimanualshift.evaluation.stats import wilson_interval
-from bimanualshift.evaluation.tables import bench_table
+from bimanualshift.evaluation.tables import bench_table, stage_table
 from bimanualshift.registry import METHODS, REFINE_FOLDER, get_method
 
 
@@ -28,8 +28,6 @@ def test_rows_average_tasks_and_pool_intervals() -> None:
 
 
 def test_multi_stage_tasks_report_stage_wise_success() -> None:
-    from bimanualshift.evaluation.tables import stage_table
-
     episodes = [{"task": "take_tray_out_of_oven", "method": "m", "seed": s, "success": done == 2, "stages_done": done}
                 for s, done in enumerate([0, 1, 1, 2])]
     (row,) = bench_rows(episodes, ["m"], ["take_tray_out_of_oven"], demos=5)
@@ -157,6 +155,17 @@ def test_rows_under_perturbations_report_relative_degradation() -> None:
     assert [(r["perturbation"], r["success"]) for r in rows] == [("none", 1.0), ("glare", 0.25)]
     assert rows[1]["degradation"] == 0.75 and "degradation" not in rows[0]
     assert "| m (glare) | 25 (" in bench_table(rows)
+
+
+def test_a_perturbation_that_helps_is_said_as_a_gain_in_the_stage_table() -> None:
+    episodes = ([{"task": "a", "method": "m", "perturbation": "none", "seed": s, "success": s < 2, "stages_done": 0}
+                 for s in range(4)]
+                + [{"task": "a", "method": "m", "perturbation": "glare", "seed": s, "success": s < 3, "stages_done": 0}
+                   for s in range(4)])
+    rows = bench_rows(episodes, ["m"], ["a"], demos=5, perturbations=["none", "glare"])
+    rows = [{**r, "stages": [{"stage": "done", "success": r["success"]}]} for r in rows]
+    assert rows[1]["degradation"] == -0.5
+    assert "(50 % above unperturbed)" in stage_table(rows) and "-50 %" not in stage_table(rows)
 
 
 def test_training_steps_come_from_the_method_unless_the_benchmark_says_otherwise() -> None:

@@ -179,11 +179,18 @@ def stage_table(rows: list[dict[str, Any]]) -> str:
         lines += [f"**{task.replace('_', ' ')}: stage-wise success (%)**", "",
                   "| method | " + " | ".join(names) + " |", "|---|" + "---|" * len(names)]
         for r in mine:
-            extra = f" ({100 * r['degradation']:.0f} % degradation)" if "degradation" in r else ""
+            extra = f" ({degradation_text(r['degradation'])})" if "degradation" in r else ""
             lines.append(f"| {row_label(r)}{extra} | " + " | ".join(f"{100 * s['success']:.0f}" for s in r["stages"])
                          + " |")
         lines.append("")
     return "\n".join(lines)
+
+
+def degradation_text(degradation: float) -> str:
+    """A perturbation's relative drop from the unperturbed success; a gain is said as one, not as a negative drop."""
+    if round(100 * degradation) < 0:
+        return f"{-100 * degradation:.0f} % above unperturbed"
+    return f"{100 * degradation:.0f} % degradation"
 
 
 def row_label(row: dict[str, Any]) -> str:
