@@ -102,3 +102,15 @@ def test_a_saved_config_reproduces_the_run_and_flags_override_it(tmp_path) -> No
     assert cfg == saved
     _, cfg = parse_command("train", ["--config", str(path), "--steps", "9", "--retrieval", "false"])
     assert cfg.optim.steps == 9 and not cfg.model.retrieval and cfg.dataset.task == "lift_ball"
+
+
+def test_a_reader_closing_the_pipe_stops_the_command_quietly() -> None:
+    import subprocess
+    import sys
+
+    # `bimanualshift tasks | head -1`: the reader goes after one line; no traceback, the SIGPIPE exit status
+    code = ("import sys; sys.stdout = open(sys.stdout.fileno(), 'w', buffering=1, closefd=False); "
+            "from bimanualshift.cli import main; main(['tasks'])")
+    done = subprocess.run(f"{sys.executable} -c \"{code}\" | head -c 1", shell=True, capture_output=True, text=True,
+                          executable="/bin/bash")
+    assert "Traceback" not in done.stderr and "BrokenPipe" not in done.stderr

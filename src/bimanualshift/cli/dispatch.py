@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import sys
 import typing
 from collections.abc import Callable
@@ -184,6 +185,11 @@ def run(parser: argparse.ArgumentParser, argv: list[str]) -> None:
             add_plugins(plugins)
         fn, options = parse_command(name, rest)
         fn(options)
+    except BrokenPipeError:
+        # the reader closed the pipe (`bimanualshift explain ... | head`): stop quietly, as other Unix tools do;
+        # stdout goes to /dev/null so that Python's exit-time flush does not raise again
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        raise SystemExit(141) from None
     except USER_ERRORS as err:
         if debug:
             raise
