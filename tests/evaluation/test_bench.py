@@ -246,6 +246,22 @@ def test_every_method_of_the_paper_table_gets_its_own_colour() -> None:
     assert colours["bimanualshift"] == label_colours(rows[::-1])["bimanualshift"]  # stable, whatever the row order
 
 
+def test_plots_colour_by_method_and_place_perturbations_on_the_axis(tmp_path: Path) -> None:
+    from bimanualshift.evaluation.plots import bar_plot, group_label, label_colours, series_label, stage_plot
+
+    rows = [{"task": "take_tray_out_of_oven", "method": m, "perturbation": p, "success": 0.5, "ci95": [0.3, 0.7],
+             "stages": [{"stage": "door open", "success": 0.9, "ci95": [0.8, 1.0]}]}
+            for p in ("none", "glare", "camera_pose") for m in ("bimanualshift", "peract_lf")]
+    assert list(label_colours(rows)) == ["bimanualshift", "peract_lf"]  # two colours, not six
+    assert [group_label(r, 1) for r in rows[::2]] == ["none", "glare", "camera pose"]
+    assert series_label(rows[2]) == "bimanualshift"
+    assert bar_plot(tmp_path / "s.png", rows, "t").stat().st_size > 0
+    assert stage_plot(tmp_path / "g.png", rows, "t").stat().st_size > 0
+    runs = [{"task": "a", "method": "bimanualshift", "run": f"{n} demos"} for n in (30, 5, 15)]
+    assert list(label_colours(runs)) == ["bimanualshift [5 demos]", "bimanualshift [15 demos]",
+                                         "bimanualshift [30 demos]"]
+
+
 def test_table1_runs_the_full_method_every_baseline_every_ablation_and_the_frozen_prior() -> None:
     from bimanualshift.evaluation.studies import TABLE1_METHODS
     from bimanualshift.registry import methods_with_role

@@ -3,30 +3,62 @@
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 from typing import Any
 
 from bimanualshift.evaluation.tables import row_label
 
 
+def series_label(row: dict[str, Any]) -> str:
+    """What a plot colours by: the row's label without its perturbation (perturbations are placed, not coloured)."""
+    return row_label({k: v for k, v in row.items() if k != "perturbation"})
+
+
+def group_label(row: dict[str, Any], tasks: int) -> str:
+    """Where a row sits on a plot's axis: its task, with the perturbation it was tested under where there is one."""
+    task = row["task"].replace("_", " ")
+    if "perturbation" not in row:
+        return task
+    return row["perturbation"].replace("_", " ") + (f" ({task})" if tasks > 1 else "")
+
+
 def label_colours(rows: list[dict[str, Any]]) -> dict[str, tuple[float, ...]]:
-    """One distinct colour per row label (method, with its demos or perturbation where they vary): labels ordered
-    by their method's place in the registry, so a method keeps its colour across plots of the same methods, and
-    the full method always comes first (tab20's strongest blue)."""
+    """One distinct colour per series (method, with its study run where it has one), ordered by the method's place
+    in the registry, so a method keeps its colour across plots of the same methods, and the full method always
+    comes first (blue)."""
     import matplotlib
 
     from bimanualshift.registry import METHODS
 
     order = {name: i for i, name in enumerate(METHODS)}
-    labels = sorted(dict.fromkeys(row_label(r) for r in rows),
-                    key=lambda label: (order.get(next(r["method"] for r in rows if row_label(r) == label), 99), label))
-    palette = matplotlib.colormaps["tab20"].colors
+    labels = sorted(dict.fromkeys(series_label(r) for r in rows),
+                    key=lambda label: (order.get(next(r["method"] for r in rows if series_label(r) == label), 99),
+                                       _natural(label)))
+    # ten series or fewer: tab10's distinct hues; more: tab20's paired shades; beyond that, evenly spaced hues
+    palette = matplotlib.colormaps["tab10" if len(labels) <= 10 else "tab20"].colors
     if len(labels) > len(palette):  # more labels than tab20 holds: fall back to evenly spaced hues
         palette = [matplotlib.colormaps["hsv"](i / len(labels)) for i in range(len(labels))]
     return {label: tuple(palette[i]) for i, label in enumerate(labels)}
 
 
+def _natural(label: str) -> list[Any]:
+    """A sort key that orders "[5 demos]" before "[15 demos]"."""
+    return [int(part) if part.isdigit() else part for part in re.split(r"(\d+)", label)]
+
+
+def _legend_below(fig: Any, ax: Any) -> None:
+    """The figure's legend in a band under the plot, so it never covers a bar, a line or the title."""
+    handles, labels = ax.get_legend_handles_labels()
+    columns = min(len(labels), 4)
+    rows = (len(labels) + columns - 1) // columns
+    fig.legend(handles, labels, fontsize=7, ncols=columns, loc="lower center", frameon=False)
+    fig.tight_layout(rect=(0, 0.02 + 0.055 * rows * 3.8 / fig.get_figheight(), 1, 1))
+
+
 def bar_plot(path: Path, rows: list[dict[str, Any]], title: str) -> Path:
+    """Success with Wilson 95 % intervals: one group per task (per perturbation in a generalisation study), one
+    colour per method."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -34,29 +66,29 @@ def bar_plot(path: Path, rows: list[dict[str, Any]], title: str) -> Path:
 
     from bimanualshift.utils.io import atomic_writer
 
-    tasks = list(dict.fromkeys(r["task"] for r in rows))
-    methods = list(dict.fromkeys(row_label(r) for r in rows))
-    cell = {(row_label(r), r["task"]): r for r in rows}
-    width = 0.8 / len(methods)
+    tasks = len(dict.fromkeys(r["task"] for r in rows))
+    groups = list(dict.fromkeys(group_label(r, tasks) for r in rows))
+    series = list(dict.fromkeys(series_label(r) for r in rows))
+    cell = {(series_label(r), group_label(r, tasks)): r for r in rows}
+    width = 0.8 / len(series)
     colours = label_colours(rows)
-    fig, ax = plt.subplots(figsize=(max(6.0, 1.6 * len(tasks)), 3.8))
-    for i, method in enumerate(methods):
+    fig, ax = plt.subplots(figsize=(max(6.0, 1.3 * len(groups) + 1.0), 4.2))
+    for i, name in enumerate(series):
         xs, ys, err = [], [], [[], []]
-        for j, task in enumerate(tasks):
-            r = cell.get((method, task))
+        for j, group in enumerate(groups):
+            r = cell.get((name, group))
             if r is None:
                 continue
-            xs.append(j + (i - (len(methods) - 1) / 2) * width)
+            xs.append(j + (i - (len(series) - 1) / 2) * width)
             ys.append(100 * r["success"])
             err[0].append(100 * (r["success"] - r["ci95"][0]))
             err[1].append(100 * (r["ci95"][1] - r["success"]))
-        ax.bar(xs, ys, width, yerr=err, capsize=2, label=method, color=colours[method])
-    ax.set_xticks(range(len(tasks)), [t.replace("_", "\n") for t in tasks], fontsize=8)
+        ax.bar(xs, ys, width, yerr=err, capsize=2, label=name, color=colours[name])
+    ax.set_xticks(range(len(groups)), [g.replace(" ", "\n") for g in groups], fontsize=8)
     ax.set_ylabel("success (%)")
     ax.set_ylim(0, 100)
     ax.set_title(title, fontsize=10)
-    ax.legend(fontsize=7, ncols=min(len(methods), 3))
-    fig.tight_layout()
+    _legend_below(fig, ax)
     with atomic_writer(path) as tmp:
         fig.savefig(tmp, format="png", dpi=120)
     plt.close(fig)
@@ -64,8 +96,8 @@ def bar_plot(path: Path, rows: list[dict[str, Any]], title: str) -> Path:
 
 
 def stage_plot(path: Path, rows: list[dict[str, Any]], title: str) -> Path | None:
-    """Stage-wise success (Fig. 11b's layout): per multi-stage task, one line per method over its stages with
-    Wilson 95 % bands; None (nothing written) when no row has stages."""
+    """Stage-wise success (Fig. 11b's layout): one panel per multi-stage task (and perturbation), one line per
+    method over its stages with Wilson 95 % bands; None (nothing written) when no row has stages."""
     staged = [r for r in rows if r.get("stages")]
     if not staged:
         return None
@@ -76,26 +108,33 @@ def stage_plot(path: Path, rows: list[dict[str, Any]], title: str) -> Path | Non
 
     from bimanualshift.utils.io import atomic_writer
 
-    tasks = list(dict.fromkeys(r["task"] for r in staged))
+    panels = list(dict.fromkeys((r["task"], r.get("perturbation")) for r in staged))
     colours = label_colours(staged)
-    fig, axes = plt.subplots(1, len(tasks), figsize=(5.5 * len(tasks), 3.8), squeeze=False)
-    for ax, task in zip(axes[0], tasks):
-        mine = [r for r in staged if r["task"] == task]
+    columns = min(len(panels), 4)
+    lines = (len(panels) + columns - 1) // columns
+    fig, axes = plt.subplots(lines, columns, figsize=(4.2 * columns if len(panels) > 1 else 5.5, 3.6 * lines + 0.6),
+                             squeeze=False, sharey=True)
+    for ax, (task, perturbation) in zip(axes.flat, panels):
+        mine = [r for r in staged if r["task"] == task and r.get("perturbation") == perturbation]
         names = [s["stage"] for s in mine[0]["stages"]]
         xs = list(range(len(names)))
         for r in mine:
             ys = [100 * s["success"] for s in r["stages"]]
             low = [100 * s["ci95"][0] for s in r["stages"]]
             high = [100 * s["ci95"][1] for s in r["stages"]]
-            colour = colours[row_label(r)]
-            ax.plot(xs, ys, marker="o", label=row_label(r), color=colour)
+            colour = colours[series_label(r)]
+            ax.plot(xs, ys, marker="o", label=series_label(r), color=colour)
             ax.fill_between(xs, low, high, alpha=0.12, color=colour)
         ax.set_xticks(xs, [n.replace(" ", "\n") for n in names], fontsize=8)
         ax.set_ylim(0, 100)
-        ax.set_ylabel("episodes reaching the stage (%)")
-        ax.set_title(f"{title}: {task.replace('_', ' ')}", fontsize=10)
-        ax.legend(fontsize=7)
-    fig.tight_layout()
+        ax.set_title(task.replace("_", " ") + (f" ({perturbation.replace('_', ' ')})" if perturbation else ""),
+                     fontsize=9)
+    for ax in axes.flat[len(panels):]:
+        ax.set_visible(False)
+    for ax in axes[:, 0]:
+        ax.set_ylabel("episodes reaching the stage (%)", fontsize=8)
+    fig.suptitle(title, fontsize=10)
+    _legend_below(fig, axes.flat[0])
     with atomic_writer(path) as tmp:
         fig.savefig(tmp, format="png", dpi=120)
     plt.close(fig)
