@@ -210,3 +210,20 @@ def test_explain_reports_the_first_keyframe_s_error_and_residual_for_failures_an
 def test_explained_seeds_are_the_seeds_the_rows_cover() -> None:
     rows = [{"method": "a", "seeds": [3, 1]}, {"method": "b", "seeds": [2, 1]}]
     assert explained_seeds(rows) == {"test": [1, 2, 3]}
+
+
+def test_explain_narrows_to_one_perturbation(tmp_path: Path) -> None:
+    good = [_step(0, [_row(0.5), _row(0.2)], [_row(0.5), _row(0.2)])]
+    episodes, logs = [], []
+    for perturbation, success in (("none", True), ("glare", False)):
+        for seed in range(2):
+            key = {"task": "t", "method": "m", "perturbation": perturbation, "seed": seed}
+            episodes.append({**key, "success": success, "keyframes": 1, "stages_done": 0})
+            logs.append({**key, "steps": good})
+    (tmp_path / "episodes.jsonl").write_text("".join(json.dumps(e) + "\n" for e in episodes))
+    (tmp_path / "keyframes.jsonl").write_text("".join(json.dumps(r) + "\n" for r in logs))
+    assert explain_rows(tmp_path, "t")[0]["episodes"] == 4
+    (glare,) = explain_rows(tmp_path, "t", perturbation="glare")
+    assert (glare["episodes"], glare["failures"]) == (2, 2)
+    with pytest.raises(ValueError, match="logged perturbations: glare, none"):
+        explain_rows(tmp_path, "t", perturbation="fog")

@@ -210,6 +210,8 @@ class ExplainArgs:
     # also set each method's episodes against this method's on the same seeds, split by the source of the
     # reference retrieved (a demo or a refinement rollout): wins, losses and how far the executed keyframes moved
     against: str = ""
+    # only the episodes tested under this perturbation (a generalisation folder holds several; default: all)
+    perturbation: str = ""
     out: str = ""  # also write the rows as a JSON result file here
 
 
@@ -217,7 +219,8 @@ def explain(args: ExplainArgs) -> None:
     from bimanualshift.evaluation.explain import explain_rows, explain_text
 
     started = time.time()
-    rows = explain_rows(args.folder, args.task, args.methods or None, args.against or None)
+    rows = explain_rows(args.folder, args.task, args.methods or None, args.against or None,
+                        args.perturbation or None)
     print(explain_text(rows, args.task))
     if args.out:
         from bimanualshift.evaluation.explain import explained_seeds
@@ -225,5 +228,5 @@ def explain(args: ExplainArgs) -> None:
 
         write_result(args.out, command_line(), explained_seeds(rows),
                      started, rows, notes=f"failures of {args.task} in {args.folder}", folder=args.folder,
-                     task=args.task, against=args.against or None)
+                     task=args.task, against=args.against or None, perturbation=args.perturbation or None)
         print(f"wrote {args.out}")

@@ -182,12 +182,13 @@ def explained_seeds(rows: list[dict[str, Any]]) -> dict[str, list[int]]:
     return {"test": sorted({int(s) for r in rows for s in r["seeds"]})}
 
 
-def explain_rows(folder: str | Path, task: str, methods: list[str] | None = None, against: str | None = None
-                 ) -> list[dict[str, Any]]:
+def explain_rows(folder: str | Path, task: str, methods: list[str] | None = None, against: str | None = None,
+                 perturbation: str | None = None) -> list[dict[str, Any]]:
     """One row per method of ``task`` in bench folder ``folder``: episodes, failures, the stages failures reached,
     where they first diverged (keyframe, arm), holds, the retrieval's firing rate and mean similarity, and the
     episodes by the source of the reference they retrieved (a demo or a refinement rollout) with their successes.
-    With ``against``, each other method's episodes are also set against that method's on the same seeds."""
+    With ``against``, each other method's episodes are also set against that method's on the same seeds; with
+    ``perturbation``, only the episodes tested under it count."""
     folder = Path(folder)
     log = folder / KEYFRAME_LOG
     if not log.is_file() and log.with_suffix(".jsonl.gz").is_file():  # an archived folder keeps its log gzipped
@@ -200,6 +201,12 @@ def explain_rows(folder: str | Path, task: str, methods: list[str] | None = None
                 for e in read_records(folder / "episodes.jsonl")}
     logs = {(r["task"], r["method"], r.get("perturbation", "none"), r["seed"]): r["steps"] for r in read_records(log)}
     keys = [k for k in episodes if k[0] == task and k in logs]
+    if perturbation is not None:
+        recorded = sorted({k[2] for k in keys})
+        keys = [k for k in keys if k[2] == perturbation]
+        if recorded and not keys:
+            raise ValueError(f"no logged episodes of {task!r} under perturbation {perturbation!r} in {folder}; "
+                             f"logged perturbations: {', '.join(recorded)}")
     if not keys:
         known = sorted({k[0] for k in logs})
         raise ValueError(f"no logged episodes of {task!r} in {folder}; logged tasks: {known}")
