@@ -195,6 +195,11 @@ register_method(_residual_method(
     "no_refinement and goal_extremities on validation seeds)", refine=False, retrieval=True, goal_extremities=True,
     gate_per_keyframe=True, **EARLIER_TRAINING))
 register_method(_residual_method(
+    "prompted_prior", "variant: the full method before refinement whose frozen prior is asked the instruction of its "
+    "own suite whose proposals lie closest to the training demos' keyframes, when one beats the task's own phrasing "
+    "by 25 % (--prior-instruction auto; compare with no_refinement on validation seeds)", refine=False,
+    retrieval=True, prior_instruction="auto"))
+register_method(_residual_method(
     "no_projection", "ablation: the prior sees the global scene", retrieval=True, use_projection=False,
     role="ablation"))
 register_method(_frozen_prior_method(

@@ -202,5 +202,6 @@ def load_bimanualshift(directory: str | Path, text_encoder: TextEncoder | None =
                              locate_goal=rcfg.goal_dim > 0,
                              segmenter=segmenter or cfg.get("segmenter", "simulator"),
                              segmenter_options=cfg.get("segmenter_options"),
-                             proposal_features=rcfg.proposal_dim > 0)
+                             proposal_features=rcfg.proposal_dim > 0,
+                             prior_instruction=cfg.get("prior_instruction", ""))
     return BimanualShift(prior_step, residual, memory, residual_encoder)

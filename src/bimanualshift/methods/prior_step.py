@@ -33,9 +33,12 @@ class FrozenPriorStep:
     def __init__(self, prior: UnimanualPrior, text_encoder: TextEncoder, use_projection: bool = True,
                  segmenter: str = "simulator",
                  segmenter_options: dict[str, str] | None = None, locate_goal: bool = False,
-                 proposal_features: bool = False) -> None:
+                 proposal_features: bool = False, prior_instruction: str = "") -> None:
         self.prior = prior.freeze()
         self.text_encoder = text_encoder
+        # what the prior is asked instead of the episode's instruction ("" keeps the episode's: the paper); chosen
+        # on the training demos by `train --prior-instruction auto` (training/prior_instruction.py)
+        self.prior_instruction = prior_instruction
         # fill every output's ``proposal_features`` (priors that do not while predicting take one more pass)
         self.proposal_features = proposal_features
         cfg = prior.config
@@ -48,7 +51,12 @@ class FrozenPriorStep:
                                              voxels=prior.observation == "voxels")
 
     def text(self, instruction: str) -> torch.Tensor:
-        return torch.as_tensor(self.text_encoder.encode([instruction]))
+        """The prior's instruction embedding (batch of one) for an episode given ``instruction``."""
+        return torch.as_tensor(self.text_encoder.encode([self.prior_instruction or instruction]))
+
+    def prior_texts(self, instructions: list[str]) -> list[str]:
+        """What the prior reads for each of ``instructions``."""
+        return [self.prior_instruction or t for t in instructions]
 
     def run(self, obs: KeyframeObservation) -> dict[str, ArmStep]:
         per_arm = self.builder.build(obs)

@@ -128,6 +128,11 @@ class ResidualModelConfig:
     # "w_positive" as the environment gives them (w >= 0, which flips at random near the gripper-down pose; half
     # the demos' poses). Chosen on validation seeds (docs/residual.md).
     quaternion_sign: str = "gripper_down"
+    # What the frozen prior is asked: "" the episode's own instruction (the paper), "auto" the instruction of the
+    # prior's pretraining suite whose proposals lie closest to the training demos' keyframes when it clearly beats
+    # the task's own (training/prior_instruction.py), any other text that instruction. The Manager and the memory
+    # keep the episode's instruction.
+    prior_instruction: str = ""
 
     def residual_config(self, feature_dim: int, text_dim: int, proposal_dim: int = 0,
                         rotation_bins: int = 0) -> ResidualConfig:

@@ -49,6 +49,7 @@ from bimanualshift.training.checkpoint import latest_checkpoint
 from bimanualshift.training.configs import ARM_ORDER, TrainConfig
 from bimanualshift.training.loop import run_training
 from bimanualshift.training.optim import lr_factor, make_optimizer
+from bimanualshift.training.prior_instruction import AUTO, MARGIN, choose_prior_instruction, suite_instructions
 from bimanualshift.utils.config_files import load_safetensors, read_json_file
 from bimanualshift.utils.io import atomic_write_json
 
@@ -130,7 +131,8 @@ def residual_data(config: ResidualConfig, paths: list[Path], prior_step: FrozenP
     n = len(samples)
     arm_index = torch.as_tensor([ARM_ORDER.index(a) if a in ARM_ORDER else 0 for a in samples.arm])
     text = torch.as_tensor(text_encoder.encode(samples.instructions))  # the residual's (Manager, memory key)
-    prior_text = torch.as_tensor(prior_step.text_encoder.encode(samples.instructions))  # the prior's own
+    # the prior's own encoder, and the instruction it is asked (``prior_step.prior_instruction``)
+    prior_text = torch.as_tensor(prior_step.text_encoder.encode(prior_step.prior_texts(samples.instructions)))
     generator = torch.Generator().manual_seed(seed)
     gripper = torch.as_tensor(samples.gripper_open, dtype=torch.float32)
     hold = torch.as_tensor(hold_labels(samples))
@@ -403,6 +405,30 @@ def changed_settings(cfg: TrainConfig) -> list[str]:
     return sorted(k for k in now if k in before and before[k] != now[k] and k not in RESUMABLE_CHANGES)
 
 
+PRIOR_INSTRUCTION_FILE = "prior_instruction.json"  # under the run folder: what `auto` chose, and from what
+
+
+def resolve_prior_instruction(cfg: TrainConfig, prior_step: FrozenPriorStep, paths: list[Path], out: Path
+                              ) -> dict[str, Any]:
+    """Set ``prior_step.prior_instruction`` from ``--prior-instruction``; ``auto`` chooses it on the training demos
+    once per run (a resumed run reads its earlier choice) and records the choice with its table."""
+    wanted = cfg.model.prior_instruction
+    if wanted != AUTO:
+        prior_step.prior_instruction = wanted
+        return {"prior_instruction": wanted}
+    record = out / PRIOR_INSTRUCTION_FILE
+    if record.is_file():
+        chosen = read_json_file(record, "prior instruction choice")
+    else:
+        samples = build_arm_samples(paths, prior_step.builder, prior_step.prior.config.max_keyframes,
+                                    desc="prior instruction")
+        instruction, table = choose_prior_instruction(prior_step, samples, suite_instructions(cfg.prior))
+        chosen = {"prior_instruction": instruction, "margin": MARGIN, "candidates": table}
+        atomic_write_json(record, chosen)
+    prior_step.prior_instruction = chosen["prior_instruction"]
+    return chosen
+
+
 def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Path:
     started = time.time()
     out = Path(cfg.out)
@@ -424,6 +450,7 @@ def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Pat
     if not paths:
         raise FileNotFoundError(f"no bimanual demos for {cfg.dataset.task} under {cfg.dataset.data}; run "
                                 f"`bimanualshift collect --task {cfg.dataset.task} --out {cfg.dataset.data}` first")
+    instruction_choice = resolve_prior_instruction(cfg, prior_step, paths, out)
     bins = int(round(360 / prior.rotation_bin_degrees)) if prior.rotation_bin_degrees else 0
     if cfg.model.action_space and not bins:
         raise ValueError(f"the prior {cfg.prior} has no rotation bins and no translation heat-map: an action-space "
@@ -456,7 +483,7 @@ def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Pat
                        "retrieval": cfg.model.retrieval,
                        "segmenter_options": segmenter_options(cfg.model.grounding_dino, cfg.model.sam),
                        "task": cfg.dataset.task, "demos": len(paths), "train_config": asdict(cfg),
-                       "text_encoder": cfg.model.text_encoder}
+                       "text_encoder": cfg.model.text_encoder, "prior_instruction": prior_step.prior_instruction}
 
     weights = LossWeights(cfg.beta, cfg.gripper_weight, cfg.hold_weight)
 
@@ -488,5 +515,5 @@ def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Pat
     atomic_write_json(out / "summary.json", {**result, "wall_time_s": round(time.time() - started, 1),
                                              "train_samples": len(train.inputs),
                                              "validation_translation_error": translation_report(residual, val),
-                                             **gate})
+                                             **gate, **instruction_choice})
     return out / "best"
