@@ -18,6 +18,7 @@ from dataclasses import asdict
 from bimanualshift.data.seeds import split_seeds
 from bimanualshift.evaluation.report import write_result
 from bimanualshift.sim.coverage import SKILL_PAIRS, coverage
+from bimanualshift.utils.pipes import quiet_on_closed_pipe
 
 
 def main() -> None:
@@ -49,4 +50,5 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    with quiet_on_closed_pipe():
+        main()

@@ -20,6 +20,7 @@ from pathlib import Path
 from bimanualshift.data.seeds import split_seeds
 from bimanualshift.evaluation.bench import BenchConfig, run_bench
 from bimanualshift.evaluation.report import write_result
+from bimanualshift.utils.pipes import quiet_on_closed_pipe
 
 
 def best_time(run: Path) -> tuple[float, float, int]:
@@ -68,4 +69,5 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    with quiet_on_closed_pipe():
+        main()

@@ -20,6 +20,7 @@ from pathlib import Path
 
 from bimanualshift.cli.dispatch import COMMANDS
 from bimanualshift.evaluation.report import write_result
+from bimanualshift.utils.pipes import quiet_on_closed_pipe
 
 BIN = str(Path(sys.executable).with_name("bimanualshift"))
 
@@ -53,4 +54,5 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    with quiet_on_closed_pipe():
+        main()

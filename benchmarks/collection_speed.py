@@ -17,6 +17,7 @@ from pathlib import Path
 from bimanualshift.data.collect import collect
 from bimanualshift.data.seeds import split_seeds
 from bimanualshift.evaluation.report import write_result
+from bimanualshift.utils.pipes import quiet_on_closed_pipe
 
 
 def main() -> None:
@@ -51,4 +52,5 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    with quiet_on_closed_pipe():
+        main()

@@ -36,6 +36,7 @@ from bimanualshift.residual.manager import ResidualConfig, ResidualPolicy
 from bimanualshift.residual.skills import SkillBasis
 from bimanualshift.sim.env import ManipulationEnv
 from bimanualshift.training.configs import ResidualModelConfig
+from bimanualshift.utils.pipes import quiet_on_closed_pipe
 
 
 def median_ms(fn, repeats: int) -> float:  # noqa: ANN001 - any callable
@@ -168,4 +169,5 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    with quiet_on_closed_pipe():
+        main()

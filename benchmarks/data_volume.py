@@ -22,6 +22,7 @@ from bimanualshift.evaluation.report import write_result
 from bimanualshift.training.configs import PretrainConfig
 from bimanualshift.training.pretrain import pretrain
 from bimanualshift.utils.config_files import config_from_flat
+from bimanualshift.utils.pipes import quiet_on_closed_pipe
 
 
 def main() -> None:
@@ -67,4 +68,5 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    with quiet_on_closed_pipe():
+        main()

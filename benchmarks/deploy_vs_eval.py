@@ -28,6 +28,7 @@ from bimanualshift.evaluation.report import write_result
 from bimanualshift.rollout.loop import episode_budget, rollout
 from bimanualshift.sim.env import ManipulationEnv
 from bimanualshift.sim.task import resolve_task_names
+from bimanualshift.utils.pipes import quiet_on_closed_pipe
 
 
 def offline(policy, task: str, seeds: list[int]) -> list[tuple[bool, list]]:  # noqa: ANN001 - any policy
@@ -90,4 +91,5 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    with quiet_on_closed_pipe():
+        main()

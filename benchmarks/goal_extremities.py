@@ -26,6 +26,7 @@ from bimanualshift.perception.goal_geometry import BOX_GEOMETRY_DIM
 from bimanualshift.perception.observation import DEFAULT_ARM_BOUNDS, ArmObservationBuilder
 from bimanualshift.perception.projection import ArmProjection
 from bimanualshift.perception.segmenters.simulator import SimulatorSegmenter
+from bimanualshift.utils.pipes import quiet_on_closed_pipe
 
 
 def summary(name: str, errors: list[float]) -> dict[str, float]:
@@ -74,4 +75,5 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    with quiet_on_closed_pipe():
+        main()

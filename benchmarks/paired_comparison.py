@@ -22,6 +22,7 @@ from pathlib import Path
 from bimanualshift.evaluation.report import write_result
 from bimanualshift.evaluation.stats import paired_sign_test
 from bimanualshift.utils.jsonl import read_records
+from bimanualshift.utils.pipes import quiet_on_closed_pipe
 
 
 def main() -> None:
@@ -84,4 +85,5 @@ def _row(a: str, b: str, flags_a: list[bool], flags_b: list[bool]) -> dict[str, 
 
 
 if __name__ == "__main__":
-    main()
+    with quiet_on_closed_pipe():
+        main()

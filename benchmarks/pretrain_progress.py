@@ -17,6 +17,7 @@ import time
 from pathlib import Path
 
 from bimanualshift.evaluation.report import write_result
+from bimanualshift.utils.pipes import quiet_on_closed_pipe
 
 
 def progress_rows(run: Path) -> list[dict]:
@@ -66,4 +67,5 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    with quiet_on_closed_pipe():
+        main()

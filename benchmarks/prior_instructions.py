@@ -37,6 +37,7 @@ from bimanualshift.sim.task import resolve_task_names
 from bimanualshift.training.keyframe_errors import keyframe_errors
 from bimanualshift.training.pretrain import PriorBatches
 from bimanualshift.utils.config_files import read_json_file
+from bimanualshift.utils.pipes import quiet_on_closed_pipe
 
 TRAY_TASK = "take_tray_out_of_oven"
 DOOR, TRAY = "open the oven door", "take the tray out of the open oven"
@@ -138,4 +139,5 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    with quiet_on_closed_pipe():
+        main()

@@ -28,6 +28,7 @@ from bimanualshift.priors import UnimanualPrior
 from bimanualshift.sim.task import resolve_task_names
 from bimanualshift.training.keyframe_errors import keyframe_errors
 from bimanualshift.training.pretrain import PriorBatches
+from bimanualshift.utils.pipes import quiet_on_closed_pipe
 
 
 def main() -> None:
@@ -71,4 +72,5 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    with quiet_on_closed_pipe():
+        main()

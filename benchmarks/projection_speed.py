@@ -31,6 +31,7 @@ from bimanualshift.perception.projection import ArmProjection
 from bimanualshift.perception.segmenters import make_segmenter
 from bimanualshift.sim.env import ManipulationEnv
 from bimanualshift.sim.task import task_names
+from bimanualshift.utils.pipes import quiet_on_closed_pipe
 
 
 def expert_frames(task: str, seed: int, image_size: int) -> list[KeyframeObservation]:
@@ -100,4 +101,5 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    with quiet_on_closed_pipe():
+        main()

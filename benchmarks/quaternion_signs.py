@@ -18,6 +18,7 @@ from bimanualshift.data.episode import list_episodes, read_episode
 from bimanualshift.evaluation.report import write_result
 from bimanualshift.geometry.frames import ArmFrame
 from bimanualshift.perception.observation import proprio_in_arm_frame
+from bimanualshift.utils.pipes import quiet_on_closed_pipe
 
 
 def main() -> None:
@@ -52,4 +53,5 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    with quiet_on_closed_pipe():
+        main()

@@ -18,6 +18,7 @@ import time
 
 from bimanualshift.data.seeds import split_seeds
 from bimanualshift.evaluation.report import write_result
+from bimanualshift.utils.pipes import quiet_on_closed_pipe
 
 CHILD = """
 import json, statistics, sys, time
@@ -63,4 +64,5 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    with quiet_on_closed_pipe():
+        main()

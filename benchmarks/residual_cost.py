@@ -29,6 +29,7 @@ from bimanualshift.training.augment import Se3Augmentation
 from bimanualshift.training.configs import ResidualModelConfig, TrainConfig
 from bimanualshift.training.optim import make_optimizer
 from bimanualshift.training.residual_trainer import LossWeights, bc_loss, residual_data
+from bimanualshift.utils.pipes import quiet_on_closed_pipe
 
 
 def main() -> None:
@@ -81,4 +82,5 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    with quiet_on_closed_pipe():
+        main()

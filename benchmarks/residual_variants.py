@@ -21,6 +21,7 @@ from bimanualshift.evaluation.report import write_result
 from bimanualshift.training.configs import TrainConfig
 from bimanualshift.training.residual_trainer import train_residual
 from bimanualshift.utils.config_files import config_from_flat
+from bimanualshift.utils.pipes import quiet_on_closed_pipe
 
 VARIANTS: dict[str, dict] = {
     "default": {},
@@ -76,4 +77,5 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    with quiet_on_closed_pipe():
+        main()

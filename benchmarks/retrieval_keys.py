@@ -24,6 +24,7 @@ from bimanualshift.evaluation.report import write_result
 from bimanualshift.memory.bank import MemoryBank
 from bimanualshift.methods.bimanualshift import MEMORY_FILE
 from bimanualshift.utils.jsonl import read_records
+from bimanualshift.utils.pipes import quiet_on_closed_pipe
 
 
 def firing_rows(results: Path, method: str) -> list[dict]:
@@ -85,4 +86,5 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    with quiet_on_closed_pipe():
+        main()

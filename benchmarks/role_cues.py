@@ -30,6 +30,7 @@ from bimanualshift.perception.observation import DEFAULT_ARM_BOUNDS, ArmObservat
 from bimanualshift.perception.projection import ArmProjection
 from bimanualshift.perception.segmenters.simulator import SimulatorSegmenter
 from bimanualshift.sim.env import ManipulationEnv
+from bimanualshift.utils.pipes import quiet_on_closed_pipe
 
 FOLDS = 5
 
@@ -129,4 +130,5 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    with quiet_on_closed_pipe():
+        main()

@@ -23,6 +23,7 @@ from bimanualshift.evaluation.report import write_result
 from bimanualshift.sim.env import ManipulationEnv
 from bimanualshift.sim.props.rope import rope_bodies
 from bimanualshift.utils.jsonl import read_records
+from bimanualshift.utils.pipes import quiet_on_closed_pipe
 
 TASK = "straighten_rope"
 
@@ -83,4 +84,5 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    with quiet_on_closed_pipe():
+        main()

@@ -27,6 +27,7 @@ from bimanualshift.deploy.malformed import CLASSES, corpus
 from bimanualshift.deploy.process import ServerProcess
 from bimanualshift.deploy.sim_robot import first_observation_message
 from bimanualshift.evaluation.report import write_result
+from bimanualshift.utils.pipes import quiet_on_closed_pipe
 
 
 def main() -> None:
@@ -107,4 +108,5 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    with quiet_on_closed_pipe():
+        main()

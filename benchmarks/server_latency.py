@@ -24,6 +24,7 @@ from bimanualshift.deploy.client import PolicyClient
 from bimanualshift.deploy.process import ServerProcess
 from bimanualshift.deploy.sim_robot import first_observation_message
 from bimanualshift.evaluation.report import write_result
+from bimanualshift.utils.pipes import quiet_on_closed_pipe
 
 
 def run_clients(url: str, message: dict, clients: int, requests: int) -> dict:
@@ -93,4 +94,5 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    with quiet_on_closed_pipe():
+        main()

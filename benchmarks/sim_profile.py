@@ -36,6 +36,7 @@ from bimanualshift.sim.arm_control import SUBSTEPS
 from bimanualshift.sim.env import ManipulationEnv
 from bimanualshift.sim.task import resolve_task_names
 from bimanualshift.utils.io import atomic_write_json
+from bimanualshift.utils.pipes import quiet_on_closed_pipe
 
 
 class StepTimer:
@@ -153,4 +154,5 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    with quiet_on_closed_pipe():
+        main()

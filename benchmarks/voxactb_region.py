@@ -28,6 +28,7 @@ from bimanualshift.perception.projection import ArmProjection
 from bimanualshift.perception.segmenters import make_segmenter
 from bimanualshift.sim.env import ManipulationEnv
 from bimanualshift.sim.task import task_names
+from bimanualshift.utils.pipes import quiet_on_closed_pipe
 
 RULES: dict[str, Callable[[np.ndarray], np.ndarray]] = {
     "mean": lambda p: p.mean(0),
@@ -70,4 +71,5 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    with quiet_on_closed_pipe():
+        main()

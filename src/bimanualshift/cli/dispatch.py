@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import importlib
-import os
 import sys
 import typing
 from collections.abc import Callable
@@ -13,6 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from bimanualshift.utils.config_files import CheckpointError, config_from_dict, read_json_file
+from bimanualshift.utils.pipes import quiet_on_closed_pipe
 from bimanualshift.utils.plugins import PluginError, add_plugins
 
 DESCRIPTION = """BimanualShift: reuse a frozen single-arm policy for both arms of a bimanual robot.
@@ -181,15 +181,11 @@ def run(parser: argparse.ArgumentParser, argv: list[str]) -> None:
         raise SystemExit(0 if argv else 2)
     name, rest = argv[0], argv[1:]
     try:
-        if plugins:
-            add_plugins(plugins)
-        fn, options = parse_command(name, rest)
-        fn(options)
-    except BrokenPipeError:
-        # the reader closed the pipe (`bimanualshift explain ... | head`): stop quietly, as other Unix tools do;
-        # stdout goes to /dev/null so that Python's exit-time flush does not raise again
-        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
-        raise SystemExit(141) from None
+        with quiet_on_closed_pipe():  # `bimanualshift explain ... | head`
+            if plugins:
+                add_plugins(plugins)
+            fn, options = parse_command(name, rest)
+            fn(options)
     except USER_ERRORS as err:
         if debug:
             raise
