@@ -15,6 +15,7 @@ import dataclasses
 from typing import Any
 
 import numpy as np
+from tqdm import tqdm
 
 from bimanualshift.methods.prior_step import FrozenPriorStep
 from bimanualshift.perception.arm_samples import ArmSamples
@@ -55,7 +56,7 @@ def median_errors(prior_step: FrozenPriorStep, samples: ArmSamples, instructions
     error (m) over every (keyframe, arm) of ``samples``."""
     prior = prior_step.prior
     out = []
-    for text in instructions:
+    for text in tqdm(instructions, desc="ask the prior each instruction", unit="instruction"):
         texts = list(samples.instructions) if text == OWN_PHRASING else [text] * len(samples)
         batches = PriorBatches(dataclasses.replace(samples, instructions=texts), prior_step.builder.grid,
                                prior.action_horizon)
