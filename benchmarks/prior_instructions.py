@@ -91,6 +91,7 @@ def main() -> None:
     parser.add_argument("--tasks", nargs="+", default=["bimanual"])
     parser.add_argument("--data", nargs="+", default=["data/bench/validation"],
                         help="demo folders (one sub-folder per task); each is reported on its own")
+    parser.add_argument("--demos", type=int, default=0, help="the first N demos of each task (0: all)")
     parser.add_argument("--out", default="results/prior_instructions.json")
     args = parser.parse_args()
     torch.set_num_threads(2)
@@ -103,7 +104,7 @@ def main() -> None:
     for folder in args.data:
         seeds[Path(folder).name] = []
         for task in resolve_task_names(args.tasks):
-            paths = list_episodes(folder, task)
+            paths = list_episodes(folder, task)[: args.demos or None]
             if not paths:
                 sys.exit(f"no {task} demos under {folder}; collect them with "
                          f"`bimanualshift collect --task {task} --out {folder}`")

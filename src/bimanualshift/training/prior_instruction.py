@@ -29,6 +29,10 @@ OWN_PHRASING = ""  # the prior reads each episode's own instruction (the paper)
 # A suite instruction replaces the task's own phrasing only when its median keyframe error is this much lower
 # (relative): smaller gaps on a few demos are noise, and the task's own words are what a user wrote.
 MARGIN = 0.25
+# Demos the choice is made on (the first ones): each candidate costs one prior pass per keyframe and arm, ~7 min for
+# twelve candidates on 30 demos on two CPU cores; take tray's and sweep's choices stand out on 5 (the margins in
+# results/prior_instructions.json are 2-3x).
+CHOICE_DEMOS = 10
 
 
 def suite_instructions(prior: str) -> list[str]:

@@ -49,7 +49,13 @@ from bimanualshift.training.checkpoint import latest_checkpoint
 from bimanualshift.training.configs import ARM_ORDER, TrainConfig
 from bimanualshift.training.loop import run_training
 from bimanualshift.training.optim import lr_factor, make_optimizer
-from bimanualshift.training.prior_instruction import AUTO, MARGIN, choose_prior_instruction, suite_instructions
+from bimanualshift.training.prior_instruction import (
+    AUTO,
+    CHOICE_DEMOS,
+    MARGIN,
+    choose_prior_instruction,
+    suite_instructions,
+)
 from bimanualshift.utils.config_files import load_safetensors, read_json_file
 from bimanualshift.utils.io import atomic_write_json
 
@@ -420,10 +426,11 @@ def resolve_prior_instruction(cfg: TrainConfig, prior_step: FrozenPriorStep, pat
     if record.is_file():
         chosen = read_json_file(record, "prior instruction choice")
     else:
-        samples = build_arm_samples(paths, prior_step.builder, prior_step.prior.config.max_keyframes,
+        samples = build_arm_samples(paths[:CHOICE_DEMOS], prior_step.builder, prior_step.prior.config.max_keyframes,
                                     desc="prior instruction")
         instruction, table = choose_prior_instruction(prior_step, samples, suite_instructions(cfg.prior))
-        chosen = {"prior_instruction": instruction, "margin": MARGIN, "candidates": table}
+        chosen = {"prior_instruction": instruction, "margin": MARGIN, "demos": len(paths[:CHOICE_DEMOS]),
+                  "candidates": table}
         atomic_write_json(record, chosen)
     prior_step.prior_instruction = chosen["prior_instruction"]
     return chosen
