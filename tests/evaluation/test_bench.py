@@ -262,6 +262,23 @@ def test_plots_colour_by_method_and_place_perturbations_on_the_axis(tmp_path: Pa
                                          "bimanualshift [30 demos]"]
 
 
+def test_a_stage_plots_legend_names_every_method_of_every_panel() -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from bimanualshift.evaluation.plots import legend_entries
+
+    fig, (first, second) = plt.subplots(1, 2)
+    first.plot([0, 1], label="peract_lf")  # the full method has no row on the first panel's task
+    second.plot([0, 1], label="bimanualshift")
+    second.plot([0, 1], label="peract_lf")
+    handles, labels = legend_entries([first, second])
+    plt.close(fig)
+    assert labels == ["peract_lf", "bimanualshift"] and len(handles) == 2
+
+
 def test_table1_runs_the_full_method_every_baseline_every_ablation_and_the_frozen_prior() -> None:
     from bimanualshift.evaluation.studies import TABLE1_METHODS
     from bimanualshift.registry import methods_with_role

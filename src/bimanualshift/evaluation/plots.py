@@ -47,9 +47,19 @@ def _natural(label: str) -> list[Any]:
     return [int(part) if part.isdigit() else part for part in re.split(r"(\d+)", label)]
 
 
-def _legend_below(fig: Any, ax: Any) -> None:
+def legend_entries(axes: list[Any]) -> tuple[list[Any], list[str]]:
+    """Every series drawn on any of ``axes``, once each in the order first drawn: a method missing from the first
+    panel of a stage plot still gets its entry."""
+    entries: dict[str, Any] = {}
+    for ax in axes:
+        for handle, label in zip(*ax.get_legend_handles_labels(), strict=True):
+            entries.setdefault(label, handle)
+    return list(entries.values()), list(entries)
+
+
+def _legend_below(fig: Any, axes: list[Any]) -> None:
     """The figure's legend in a band under the plot, so it never covers a bar, a line or the title."""
-    handles, labels = ax.get_legend_handles_labels()
+    handles, labels = legend_entries(axes)
     columns = min(len(labels), 4)
     rows = (len(labels) + columns - 1) // columns
     fig.legend(handles, labels, fontsize=7, ncols=columns, loc="lower center", frameon=False)
@@ -88,7 +98,7 @@ def bar_plot(path: Path, rows: list[dict[str, Any]], title: str) -> Path:
     ax.set_ylabel("success (%)")
     ax.set_ylim(0, 100)
     ax.set_title(title, fontsize=10)
-    _legend_below(fig, ax)
+    _legend_below(fig, [ax])
     with atomic_writer(path) as tmp:
         fig.savefig(tmp, format="png", dpi=120)
     plt.close(fig)
@@ -134,7 +144,7 @@ def stage_plot(path: Path, rows: list[dict[str, Any]], title: str) -> Path | Non
     for ax in axes[:, 0]:
         ax.set_ylabel("episodes reaching the stage (%)", fontsize=8)
     fig.suptitle(title, fontsize=10)
-    _legend_below(fig, axes.flat[0])
+    _legend_below(fig, list(axes.flat))
     with atomic_writer(path) as tmp:
         fig.savefig(tmp, format="png", dpi=120)
     plt.close(fig)
