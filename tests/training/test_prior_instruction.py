@@ -83,7 +83,7 @@ def test_auto_choice_is_recorded_kept_on_resume_and_loaded(demo_root: Path, prio
     record = json.loads((tmp_path / PRIOR_INSTRUCTION_FILE).read_text())
     texts = [row["instruction"] for row in record["candidates"]]
     assert texts == ["(the task's own)", *suite_instructions(str(prior_dir))]
-    assert record["demos"] == min(2, CHOICE_DEMOS)
+    assert record["chosen_on_demos"] == min(2, CHOICE_DEMOS)
     errors = [row["median_cm"] for row in record["candidates"]]
     best = int(np.argmin(errors))
     expected = texts[best] if best and errors[best] < (1 - record["margin"]) * errors[0] else OWN_PHRASING

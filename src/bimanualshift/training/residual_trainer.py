@@ -429,7 +429,7 @@ def resolve_prior_instruction(cfg: TrainConfig, prior_step: FrozenPriorStep, pat
         samples = build_arm_samples(paths[:CHOICE_DEMOS], prior_step.builder, prior_step.prior.config.max_keyframes,
                                     desc="prior instruction")
         instruction, table = choose_prior_instruction(prior_step, samples, suite_instructions(cfg.prior))
-        chosen = {"prior_instruction": instruction, "margin": MARGIN, "demos": len(paths[:CHOICE_DEMOS]),
+        chosen = {"prior_instruction": instruction, "margin": MARGIN, "chosen_on_demos": len(paths[:CHOICE_DEMOS]),
                   "candidates": table}
         atomic_write_json(record, chosen)
     prior_step.prior_instruction = chosen["prior_instruction"]
