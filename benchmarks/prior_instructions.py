@@ -16,7 +16,6 @@ Nothing is trained.
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import shlex
 import sys
 import time
@@ -31,12 +30,8 @@ from bimanualshift.evaluation.report import write_result
 from bimanualshift.methods.prior_step import FrozenPriorStep
 from bimanualshift.perception.arm_samples import ArmSamples, build_arm_samples
 from bimanualshift.priors import UnimanualPrior
-from bimanualshift.priors.base import resolve_prior_path
-from bimanualshift.sim.env import ManipulationEnv
 from bimanualshift.sim.task import resolve_task_names
-from bimanualshift.training.keyframe_errors import keyframe_errors
-from bimanualshift.training.pretrain import PriorBatches
-from bimanualshift.utils.config_files import read_json_file
+from bimanualshift.training.prior_instruction import proposal_errors, suite_instructions
 from bimanualshift.utils.pipes import quiet_on_closed_pipe
 
 TRAY_TASK = "take_tray_out_of_oven"
@@ -44,18 +39,6 @@ DOOR, TRAY = "open the oven door", "take the tray out of the open oven"
 # take tray's role schemes: name -> (door arm's instruction, tray arm's instruction)
 ROLE_SCHEMES: dict[str, tuple[str, str]] = {"each role its skill": (DOOR, TRAY), "roles swapped": (TRAY, DOOR)}
 OWN = "own phrasing"
-
-
-def suite_instructions(tasks: list[str], seed: int = 0) -> list[str]:
-    """One instruction per pretraining task, as its first episode phrases it (a colour-naming task names one)."""
-    out = []
-    for task in tasks:
-        env = ManipulationEnv(task)
-        try:
-            out.append(env.reset(seed=seed, options={"render": False, "settle": False})[1]["instruction"])
-        finally:
-            env.close()
-    return out
 
 
 def tray_arms(samples: ArmSamples) -> dict[int, str]:
@@ -71,10 +54,9 @@ def tray_arms(samples: ArmSamples) -> dict[int, str]:
     return out
 
 
-def error_rows(model: UnimanualPrior, samples: ArmSamples, grid, texts: list[str], groups: dict[str, np.ndarray],
+def error_rows(step: FrozenPriorStep, samples: ArmSamples, texts: list[str], groups: dict[str, np.ndarray],
                **labels: str) -> list[dict]:
-    batches = PriorBatches(dataclasses.replace(samples, instructions=texts), grid, model.action_horizon)
-    trans, _, _ = keyframe_errors(model, batches)
+    trans = proposal_errors(step, samples, texts)
     rows = []
     for group, mask in groups.items():
         first = mask & (samples.keyframe == 0)
@@ -97,9 +79,9 @@ def main() -> None:
     torch.set_num_threads(2)
     started = time.time()
     model = UnimanualPrior.from_pretrained(args.prior).freeze()
-    builder = FrozenPriorStep(model, default_text_encoder()).builder
-    trained_on = read_json_file(resolve_prior_path(args.prior) / "config.json", "prior's config")
-    candidates = suite_instructions(trained_on.get("pretrain_tasks") or [])
+    step = FrozenPriorStep(model, default_text_encoder())
+    builder = step.builder
+    candidates = suite_instructions(args.prior)
     rows, seeds = [], {}
     for folder in args.data:
         seeds[Path(folder).name] = []
@@ -119,11 +101,11 @@ def main() -> None:
             labels = {"demos": folder, "task": task}
             for text in [OWN, *candidates]:
                 texts = list(samples.instructions) if text == OWN else [text] * len(samples)
-                rows += error_rows(model, samples, builder.grid, texts, groups, **labels, instruction=text)
+                rows += error_rows(step, samples, texts, groups, **labels, instruction=text)
             if task == TRAY_TASK:
                 for scheme, (door_text, tray_text) in ROLE_SCHEMES.items():
                     texts = [tray_text if t else door_text for t in is_tray]
-                    rows += error_rows(model, samples, builder.grid, texts, groups, **labels, instruction=scheme)
+                    rows += error_rows(step, samples, texts, groups, **labels, instruction=scheme)
             best = min((r for r in rows if r["task"] == task and r["demos"] == folder and r["arms"] == "both"),
                        key=lambda r: r["median_cm"])
             own = next(r for r in rows if r["task"] == task and r["demos"] == folder and r["arms"] == "both"

@@ -52,7 +52,7 @@ class FrozenPriorStep:
 
     def text(self, instruction: str) -> torch.Tensor:
         """The prior's instruction embedding (batch of one) for an episode given ``instruction``."""
-        return torch.as_tensor(self.text_encoder.encode([self.prior_instruction or instruction]))
+        return torch.as_tensor(self.text_encoder.encode(self.prior_texts([instruction])))
 
     def prior_texts(self, instructions: list[str]) -> list[str]:
         """What the prior reads for each of ``instructions``."""

@@ -55,17 +55,22 @@ def suite_instructions(prior: str) -> list[str]:
     return list(dict.fromkeys(out))
 
 
+def proposal_errors(prior_step: FrozenPriorStep, samples: ArmSamples, texts: list[str]) -> np.ndarray:
+    """(N,) the prior's teacher-forced translation error (m) on each (keyframe, arm) of ``samples``, each asked
+    its own entry of ``texts``."""
+    prior = prior_step.prior
+    batches = PriorBatches(dataclasses.replace(samples, instructions=texts), prior_step.builder.grid,
+                           prior.action_horizon)
+    return keyframe_errors(prior, batches)[0]
+
+
 def median_errors(prior_step: FrozenPriorStep, samples: ArmSamples, instructions: list[str]) -> list[float]:
     """Per instruction (``OWN_PHRASING``: each sample's own), the prior's median teacher-forced translation
     error (m) over every (keyframe, arm) of ``samples``."""
-    prior = prior_step.prior
     out = []
     for text in tqdm(instructions, desc="ask the prior each instruction", unit="instruction"):
         texts = list(samples.instructions) if text == OWN_PHRASING else [text] * len(samples)
-        batches = PriorBatches(dataclasses.replace(samples, instructions=texts), prior_step.builder.grid,
-                               prior.action_horizon)
-        trans, _, _ = keyframe_errors(prior, batches)
-        out.append(float(np.median(trans)))
+        out.append(float(np.median(proposal_errors(prior_step, samples, texts))))
     return out
 
 
