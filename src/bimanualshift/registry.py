@@ -200,6 +200,11 @@ register_method(_residual_method(
     "by 25 % (--prior-instruction auto; compare with no_refinement on validation seeds)", refine=False,
     retrieval=True, prior_instruction="auto"))
 register_method(_residual_method(
+    "role_prompted_prior", "variant: the full method before refinement whose frozen prior is asked, per arm, the "
+    "instruction of its own suite that a classifier picks from what the arm observes, fitted on the training demos' "
+    "best-scoring instruction per arm (translation and rotation; --prior-instruction per_arm; compare with "
+    "no_refinement on validation seeds)", refine=False, retrieval=True, prior_instruction="per_arm"))
+register_method(_residual_method(
     "no_projection", "ablation: the prior sees the global scene", retrieval=True, use_projection=False,
     role="ablation"))
 register_method(_frozen_prior_method(

@@ -1,5 +1,6 @@
-"""`--prior-instruction`: what the frozen prior is asked, chosen on the training demos (``auto``), recorded with the
-checkpoint and used again at inference; the Manager keeps the episode's instruction."""
+"""`--prior-instruction`: what the frozen prior is asked, chosen on the training demos (``auto``) or per arm from
+what the arm observes (``per_arm``), recorded with the checkpoint and used again at inference; the Manager keeps
+the episode's instruction."""
 
 from __future__ import annotations
 
@@ -11,22 +12,28 @@ import pytest
 import torch
 
 from bimanualshift.data.episode import list_episodes
+from bimanualshift.data.frames import KeyframeObservation, scene_of_env
 from bimanualshift.encoders.text import default_text_encoder
 from bimanualshift.methods.bimanualshift import load_bimanualshift
+from bimanualshift.methods.instruction_chooser import InstructionChooser, chooser_features
 from bimanualshift.methods.prior_step import FrozenPriorStep
-from bimanualshift.perception.arm_samples import build_arm_samples
+from bimanualshift.perception.arm_samples import ArmSamples, build_arm_samples
 from bimanualshift.priors import UnimanualPrior
 from bimanualshift.sim.env import ManipulationEnv
 from bimanualshift.training.configs import TrainConfig
 from bimanualshift.training.prior_instruction import (
     CHOICE_DEMOS,
     OWN_PHRASING,
+    arm_labels,
     choose_prior_instruction,
+    clipped_scores,
     median_errors,
     suite_instructions,
 )
 from bimanualshift.training.residual_trainer import PRIOR_INSTRUCTION_FILE, train_residual
 from bimanualshift.utils.config_files import config_from_flat
+
+DOOR = "open the oven door"
 
 
 @pytest.fixture(scope="module")
@@ -102,3 +109,93 @@ def test_auto_choice_is_recorded_kept_on_resume_and_loaded(demo_root: Path, prio
     assert not (tmp_path / "given" / PRIOR_INSTRUCTION_FILE).exists()
     assert json.loads((given / "config.json").read_text())["prior_instruction"] == "open the oven door"
     assert load_bimanualshift(given, default_text_encoder()).prior_step.prior_instruction == "open the oven door"
+
+
+def fake_samples(episode: list[int], arm: list[str]) -> ArmSamples:
+    n = len(episode)
+    return ArmSamples(voxels=None, proprio=np.zeros((n, 9), np.float32), instructions=["push the buttons"] * n,
+                      action_pos=np.zeros((n, 3), np.float32), action_quat=np.tile([0, 0, 0, 1.0], (n, 1)),
+                      gripper_open=np.ones(n, np.int64), ignore_collisions=np.zeros(n, np.int64),
+                      episode=np.asarray(episode), keyframe=np.zeros(n, np.int64), arm=arm,
+                      other_proprio=np.zeros((n, 8), np.float32))
+
+
+def test_arm_labels_give_one_instruction_to_the_arms_it_helps_past_the_margin() -> None:
+    samples = fake_samples([0, 0, 0, 0, 1, 1], ["left", "left", "right", "right", "left", "right"])
+    scores = {OWN_PHRASING: np.array([2.0, 2.0, 1.0, 1.0, 2.0, 2.0]),
+              DOOR: np.array([1.0, 1.0, 0.9, 0.9, 1.9, 2.5]),
+              # better than DOOR on demo 1's left arm, but it gains less in all: one instruction besides the own
+              "a near-synonym": np.array([1.45, 1.45, 1.0, 1.0, 1.6, 2.0])}
+    # demo 0's left arm: 1.0 < 0.75 * 2; its right arm: 0.9 is not 25 % below 1.0; demo 1's left: 1.9 is not
+    assert arm_labels(scores, samples, margin=0.25) == [DOOR, DOOR] + [OWN_PHRASING] * 4
+    assert arm_labels(scores, samples, margin=0.0) == [DOOR, DOOR, DOOR, DOOR, DOOR, OWN_PHRASING]
+    # nothing beats the own phrasing: every arm keeps it
+    assert arm_labels({OWN_PHRASING: scores[OWN_PHRASING]}, samples) == [OWN_PHRASING] * 6
+
+
+def test_clipped_scores_clip_as_the_output_gate() -> None:
+    scores = clipped_scores(np.array([0.0, 0.025, 0.05, 0.4]), np.array([0.0, 0.0, 90.0, 10.0]))
+    assert np.allclose(scores[:3], [0.0, 0.5, 2.0])
+    assert scores[3] == pytest.approx(1.0 + np.deg2rad(10.0) / 0.35)
+
+
+def test_prior_step_asks_each_arm_its_chooser_pick(prior_dir: Path) -> None:
+    encoder = default_text_encoder()
+    features = np.array([[1.0, 0.0], [-1.0, 0.0], [2.0, 1.0], [-2.0, 1.0]])
+    chooser = InstructionChooser.fit(features, [DOOR, OWN_PHRASING, DOOR, OWN_PHRASING])
+    step = FrozenPriorStep(UnimanualPrior.from_pretrained(prior_dir), encoder, instruction_chooser=chooser)
+    assert step.prior_texts(["a", "b"], np.array([[3.0, 0.0], [-3.0, 0.0]])) == [DOOR, "b"]
+    assert torch.equal(step.text("b", np.array([3.0, 0.0])), torch.as_tensor(encoder.encode([DOOR])))
+    assert torch.equal(step.text("b", np.array([-3.0, 0.0])), torch.as_tensor(encoder.encode(["b"])))
+    with pytest.raises(ValueError, match="needs each arm's features"):
+        step.prior_texts(["a"])
+
+
+def left_arm_prefers_the_door(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The prior's errors made to favour DOOR on the left arm only (the wiring under test, not the tiny prior)."""
+    def errors(prior_step: FrozenPriorStep, samples: ArmSamples, texts: list[str]) -> tuple[np.ndarray, np.ndarray]:
+        left = np.asarray(samples.arm) == "left"
+        door = np.asarray(texts) == DOOR
+        return np.where(left & door, 0.01, 0.04), np.where(left & door, 1.0, 15.0)
+
+    monkeypatch.setattr("bimanualshift.training.prior_instruction.teacher_forced_errors", errors)
+
+
+def test_per_arm_choice_learns_the_role_is_recorded_and_loaded(demo_root: Path, prior_dir: Path, tmp_path: Path,
+                                                               monkeypatch: pytest.MonkeyPatch) -> None:
+    left_arm_prefers_the_door(monkeypatch)
+    monkeypatch.setattr("bimanualshift.training.residual_trainer.suite_instructions", lambda prior: [DOOR, "x"])
+
+    def cfg(steps: int) -> TrainConfig:
+        return config_from_flat(TrainConfig, prior=str(prior_dir), data=str(demo_root / "bimanual"),
+                                validation_data=str(demo_root / "bimanual"), out=str(tmp_path), steps=steps,
+                                checkpoint_every=2, demos=2, schedule="constant", prior_instruction="per_arm")
+
+    best_dir = train_residual(cfg(2))
+    record = json.loads((tmp_path / PRIOR_INSTRUCTION_FILE).read_text())
+    assert [row["instruction"] for row in record["candidates"]] == ["(the task's own)", DOOR, "x"]
+    assert set(record["label_samples"]) == {"(the task's own)", DOOR}
+    assert record["train_accuracy"] == 1.0  # an arm's own frame tells left from right in these scenes
+    saved = json.loads((best_dir / "config.json").read_text())["instruction_chooser"]
+    assert saved == record["instruction_chooser"]
+    policy = load_bimanualshift(best_dir, default_text_encoder())
+    chooser = policy.prior_step.instruction_chooser
+    assert chooser is not None and chooser.to_dict() == saved
+
+    # at a real keyframe the loaded policy asks the left arm's prior DOOR and the right arm's its own instruction
+    env = ManipulationEnv("push_two_buttons")
+    try:
+        obs, info = env.reset(seed=0)
+        frame = KeyframeObservation.from_env(obs, scene_of_env(env))
+    finally:
+        env.close()
+    per_arm = policy.prior_step.builder.build(frame)
+    picks = {arm: chooser.choose(chooser_features(o.goal, o.proprio, o.other_proprio))[0] for arm, o in per_arm.items()}
+    assert picks == {"left": DOOR, "right": OWN_PHRASING}
+
+    def chosen_again(*args: object, **kwargs: object) -> None:
+        raise AssertionError("a resumed run chose its instructions again")
+
+    monkeypatch.setattr("bimanualshift.training.residual_trainer.choose_arm_instructions", chosen_again)
+    train_residual(cfg(4))
+    assert json.loads((tmp_path / "summary.json").read_text())["instruction_chooser"] == saved

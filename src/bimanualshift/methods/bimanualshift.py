@@ -14,6 +14,7 @@ from bimanualshift.encoders.text import DEFAULT_SPEC, TextEncoder, default_text_
 from bimanualshift.geometry.frames import compose_rotation, euler_bins_to_quat
 from bimanualshift.memory.bank import MemoryBank, Retrieval
 from bimanualshift.memory.reference import ProgressAlignment, episode_key, reference_vector
+from bimanualshift.methods.instruction_chooser import InstructionChooser
 from bimanualshift.methods.prior_step import ArmStep, FrozenPriorStep, world_action
 from bimanualshift.priors.base import UnimanualPrior
 from bimanualshift.residual.checkpoint import (
@@ -203,5 +204,7 @@ def load_bimanualshift(directory: str | Path, text_encoder: TextEncoder | None =
                              segmenter=segmenter or cfg.get("segmenter", "simulator"),
                              segmenter_options=cfg.get("segmenter_options"),
                              proposal_features=rcfg.proposal_dim > 0,
-                             prior_instruction=cfg.get("prior_instruction", ""))
+                             prior_instruction=cfg.get("prior_instruction", ""),
+                             instruction_chooser=(InstructionChooser.from_dict(cfg["instruction_chooser"])
+                                                  if cfg.get("instruction_chooser") else None))
     return BimanualShift(prior_step, residual, memory, residual_encoder)

@@ -11,6 +11,7 @@ from bimanualshift.data.frames import KeyframeObservation
 from bimanualshift.encoders.text import TextEncoder
 from bimanualshift.geometry.frames import ArmFrame
 from bimanualshift.geometry.voxels import VoxelGrid
+from bimanualshift.methods.instruction_chooser import InstructionChooser, chooser_features
 from bimanualshift.perception.observation import ArmObservationBuilder, arm_frames
 from bimanualshift.perception.projection import ArmProjection
 from bimanualshift.perception.segmenters import make_segmenter
@@ -33,12 +34,16 @@ class FrozenPriorStep:
     def __init__(self, prior: UnimanualPrior, text_encoder: TextEncoder, use_projection: bool = True,
                  segmenter: str = "simulator",
                  segmenter_options: dict[str, str] | None = None, locate_goal: bool = False,
-                 proposal_features: bool = False, prior_instruction: str = "") -> None:
+                 proposal_features: bool = False, prior_instruction: str = "",
+                 instruction_chooser: InstructionChooser | None = None) -> None:
         self.prior = prior.freeze()
         self.text_encoder = text_encoder
         # what the prior is asked instead of the episode's instruction ("" keeps the episode's: the paper); chosen
         # on the training demos by `train --prior-instruction auto` (training/prior_instruction.py)
         self.prior_instruction = prior_instruction
+        # or, per arm, the instruction an arm's observation picks (`--prior-instruction per_arm`); overrides the above
+        self.instruction_chooser = instruction_chooser
+        self._embeddings: dict[str, torch.Tensor] = {}  # the prior's text embedding per instruction, encoded once
         # fill every output's ``proposal_features`` (priors that do not while predicting take one more pass)
         self.proposal_features = proposal_features
         cfg = prior.config
@@ -50,20 +55,31 @@ class FrozenPriorStep:
                                              mask_voxels=use_projection, points=prior.cloud_points,
                                              voxels=prior.observation == "voxels")
 
-    def text(self, instruction: str) -> torch.Tensor:
-        """The prior's instruction embedding (batch of one) for an episode given ``instruction``."""
-        return torch.as_tensor(self.text_encoder.encode(self.prior_texts([instruction])))
+    def text(self, instruction: str, features: np.ndarray | None = None) -> torch.Tensor:
+        """The prior's instruction embedding (batch of one) for an episode given ``instruction``, for an arm that
+        observes ``features`` (``chooser_features``; needed with an instruction chooser)."""
+        text = self.prior_texts([instruction], None if features is None else np.atleast_2d(features))[0]
+        if text not in self._embeddings:
+            self._embeddings[text] = torch.as_tensor(self.text_encoder.encode([text]))
+        return self._embeddings[text]
 
-    def prior_texts(self, instructions: list[str]) -> list[str]:
-        """What the prior reads for each of ``instructions``."""
-        return [self.prior_instruction or t for t in instructions]
+    def prior_texts(self, instructions: list[str], features: np.ndarray | None = None) -> list[str]:
+        """What the prior reads for each of ``instructions``, the arm observing each row of ``features``."""
+        if self.instruction_chooser is None:
+            return [self.prior_instruction or t for t in instructions]
+        if features is None or len(features) != len(instructions):
+            raise ValueError("a prior step with an instruction chooser needs each arm's features (chooser_features) "
+                             "beside its instruction")
+        return [chosen or t for chosen, t in zip(self.instruction_chooser.choose(features), instructions,
+                                                 strict=True)]
 
     def run(self, obs: KeyframeObservation) -> dict[str, ArmStep]:
         per_arm = self.builder.build(obs)
         frames = arm_frames(obs)
-        text = self.text(obs.instruction)
         steps = {}
         for arm in obs.scene.arm_names:
+            features = chooser_features(per_arm[arm].goal, per_arm[arm].proprio, per_arm[arm].other_proprio)
+            text = self.text(obs.instruction, features if self.instruction_chooser is not None else None)
             proprio = self.prior.arm_proprio(per_arm[arm].proprio, obs.keyframe_index)
             scene = self.prior.observation_input(per_arm[arm].voxels, per_arm[arm].points)
             inputs = (torch.as_tensor(scene)[None], torch.as_tensor(proprio)[None], text)

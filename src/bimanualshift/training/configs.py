@@ -130,8 +130,9 @@ class ResidualModelConfig:
     quaternion_sign: str = "gripper_down"
     # What the frozen prior is asked: "" the episode's own instruction (the paper), "auto" the instruction of the
     # prior's pretraining suite whose proposals lie closest to the training demos' keyframes when it clearly beats
-    # the task's own (training/prior_instruction.py), any other text that instruction. The Manager and the memory
-    # keep the episode's instruction.
+    # the task's own (training/prior_instruction.py), "per_arm" per arm the instruction a classifier picks from
+    # what the arm observes (fitted on the training demos: an arm's skill follows its role), any other text that
+    # instruction. The Manager and the memory keep the episode's instruction.
     prior_instruction: str = ""
 
     def residual_config(self, feature_dim: int, text_dim: int, proposal_dim: int = 0,

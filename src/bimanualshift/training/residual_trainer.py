@@ -24,6 +24,7 @@ from bimanualshift.geometry.voxels import VoxelGrid
 from bimanualshift.memory.bank import MemoryBank, MemoryEntry
 from bimanualshift.memory.reference import REFERENCE_DIM, ProgressAlignment, episode_key, reference_vector
 from bimanualshift.methods.bimanualshift import MEMORY_FILE, save_residual
+from bimanualshift.methods.instruction_chooser import InstructionChooser
 from bimanualshift.methods.prior_step import FrozenPriorStep
 from bimanualshift.perception.arm_samples import ArmSamples, build_arm_samples
 from bimanualshift.priors.base import PriorOutput, UnimanualPrior
@@ -53,7 +54,11 @@ from bimanualshift.training.prior_instruction import (
     AUTO,
     CHOICE_DEMOS,
     MARGIN,
+    PER_ARM,
+    PER_ARM_CHOICE_DEMOS,
+    choose_arm_instructions,
     choose_prior_instruction,
+    sample_features,
     suite_instructions,
 )
 from bimanualshift.utils.config_files import load_safetensors, read_json_file
@@ -137,8 +142,11 @@ def residual_data(config: ResidualConfig, paths: list[Path], prior_step: FrozenP
     n = len(samples)
     arm_index = torch.as_tensor([ARM_ORDER.index(a) if a in ARM_ORDER else 0 for a in samples.arm])
     text = torch.as_tensor(text_encoder.encode(samples.instructions))  # the residual's (Manager, memory key)
-    # the prior's own encoder, and the instruction it is asked (``prior_step.prior_instruction``)
-    prior_text = torch.as_tensor(prior_step.text_encoder.encode(prior_step.prior_texts(samples.instructions)))
+    # the prior's own encoder, and the instruction it is asked (``prior_step.prior_instruction``, or per arm its
+    # chooser's pick from the unmoved sample: a role does not change with a rigid motion of the scene)
+    chooser_input = sample_features(samples) if prior_step.instruction_chooser is not None else None
+    prior_text = torch.as_tensor(prior_step.text_encoder.encode(prior_step.prior_texts(samples.instructions,
+                                                                                       chooser_input)))
     generator = torch.Generator().manual_seed(seed)
     gripper = torch.as_tensor(samples.gripper_open, dtype=torch.float32)
     hold = torch.as_tensor(hold_labels(samples))
@@ -416,23 +424,34 @@ PRIOR_INSTRUCTION_FILE = "prior_instruction.json"  # under the run folder: what 
 
 def resolve_prior_instruction(cfg: TrainConfig, prior_step: FrozenPriorStep, paths: list[Path], out: Path
                               ) -> dict[str, Any]:
-    """Set ``prior_step.prior_instruction`` from ``--prior-instruction``; ``auto`` chooses it on the training demos
-    once per run (a resumed run reads its earlier choice) and records the choice with its table."""
+    """Set ``prior_step.prior_instruction`` (and its ``instruction_chooser``) from ``--prior-instruction``; ``auto``
+    and ``per_arm`` choose on the training demos once per run (a resumed run reads its earlier choice) and record
+    the choice with its table."""
     wanted = cfg.model.prior_instruction
-    if wanted != AUTO:
+    if wanted not in (AUTO, PER_ARM):
         prior_step.prior_instruction = wanted
         return {"prior_instruction": wanted}
     record = out / PRIOR_INSTRUCTION_FILE
     if record.is_file():
         chosen = read_json_file(record, "prior instruction choice")
-    else:
+    elif wanted == AUTO:
         samples = build_arm_samples(paths[:CHOICE_DEMOS], prior_step.builder, prior_step.prior.config.max_keyframes,
                                     desc="prior instruction")
         instruction, table = choose_prior_instruction(prior_step, samples, suite_instructions(cfg.prior))
         chosen = {"prior_instruction": instruction, "margin": MARGIN, "chosen_on_demos": len(paths[:CHOICE_DEMOS]),
                   "candidates": table}
         atomic_write_json(record, chosen)
+    else:
+        demos = paths[:PER_ARM_CHOICE_DEMOS]
+        samples = build_arm_samples(demos, prior_step.builder, prior_step.prior.config.max_keyframes,
+                                    desc="prior instruction per arm")
+        chooser, table = choose_arm_instructions(prior_step, samples, suite_instructions(cfg.prior))
+        chosen = {"prior_instruction": "", "instruction_chooser": chooser.to_dict() if chooser else None,
+                  "margin": MARGIN, "chosen_on_demos": len(demos), **table}
+        atomic_write_json(record, chosen)
     prior_step.prior_instruction = chosen["prior_instruction"]
+    saved_chooser = chosen.get("instruction_chooser")
+    prior_step.instruction_chooser = InstructionChooser.from_dict(saved_chooser) if saved_chooser else None
     return chosen
 
 
@@ -490,7 +509,9 @@ def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Pat
                        "retrieval": cfg.model.retrieval,
                        "segmenter_options": segmenter_options(cfg.model.grounding_dino, cfg.model.sam),
                        "task": cfg.dataset.task, "demos": len(paths), "train_config": asdict(cfg),
-                       "text_encoder": cfg.model.text_encoder, "prior_instruction": prior_step.prior_instruction}
+                       "text_encoder": cfg.model.text_encoder, "prior_instruction": prior_step.prior_instruction,
+                       "instruction_chooser": (prior_step.instruction_chooser.to_dict()
+                                               if prior_step.instruction_chooser else None)}
 
     weights = LossWeights(cfg.beta, cfg.gripper_weight, cfg.hold_weight)
 
