@@ -203,8 +203,28 @@ def test_explain_reports_the_first_keyframe_s_error_and_residual_for_failures_an
     assert row["first_keyframe_cm"]["failures"] == {"left error": 20.0, "right error": 0.0, "left residual": 25.0,
                                                    "right residual": 1.0}
     assert row["first_keyframe_cm"]["successes"]["left error"] == 1.0
-    assert "first keyframe, failures (median cm from the expert; residual added): left error 20.0" in explain_text(
-        [row], "t")
+    assert "first keyframe, failures (median cm from the expert; residual added; prior turn: degrees from the " \
+           "expert's): left error 20.0" in explain_text([row], "t")
+
+
+def test_explain_reports_how_far_the_prior_s_first_proposal_turns_from_the_expert_s(tmp_path: Path) -> None:
+    half_turn = [0.0, 0.0, 1.0, 0.0]  # yawed 180 degrees from the identity the rows below hold (x, y, z, w)
+
+    def first(quat: list[float]) -> dict:
+        return {**_step(0, [_row(0.5), _row(0.2)], [_row(0.5), _row(0.2)]),
+                "policy": {"arms": [{"arm": "left", "prior": [0.5, 0.0, 1.0, *quat], "residual_cm": 1.0},
+                                    {"arm": "right", "prior": _row(0.2)[:7], "residual_cm": 1.0}]}}
+
+    (tmp_path / "episodes.jsonl").write_text("".join(
+        json.dumps({"task": "t", "method": "m", "seed": s, "success": s == 0, "keyframes": 1, "stages_done": 0})
+        + "\n" for s in range(2)))
+    (tmp_path / "keyframes.jsonl").write_text("".join(
+        json.dumps({"task": "t", "method": "m", "seed": s, "steps": [first(q)]}) + "\n"
+        for s, q in ((0, _row(0.5)[3:7]), (1, half_turn))))
+    (row,) = explain_rows(tmp_path, "t")
+    assert row["first_keyframe_cm"]["successes"]["left prior turn"] == 0.0
+    assert row["first_keyframe_cm"]["failures"]["left prior turn"] == pytest.approx(180.0)
+    assert row["first_keyframe_cm"]["failures"]["right prior turn"] == 0.0
 
 
 def test_explained_seeds_are_the_seeds_the_rows_cover() -> None:

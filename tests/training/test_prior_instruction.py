@@ -185,13 +185,18 @@ def test_per_arm_choice_learns_the_role_is_recorded_and_loaded(demo_root: Path, 
     # at a real keyframe the loaded policy asks the left arm's prior DOOR and the right arm's its own instruction
     env = ManipulationEnv("push_two_buttons")
     try:
-        obs, info = env.reset(seed=0)
+        obs, _ = env.reset(seed=0)
         frame = KeyframeObservation.from_env(obs, scene_of_env(env))
     finally:
         env.close()
     per_arm = policy.prior_step.builder.build(frame)
     picks = {arm: chooser.choose(chooser_features(o.goal, o.proprio, o.other_proprio))[0] for arm, o in per_arm.items()}
     assert picks == {"left": DOOR, "right": OWN_PHRASING}
+    steps = policy.prior_step.run(frame)
+    assert {arm: s.asked for arm, s in steps.items()} == {"left": DOOR, "right": ""}
+    policy.reset()
+    policy.decide(frame)  # the keyframe log says which arm's prior was asked what
+    assert [a.get("prior_asked") for a in policy.keyframe_log()["arms"]] == [DOOR, None]
 
     def chosen_again(*args: object, **kwargs: object) -> None:
         raise AssertionError("a resumed run chose its instructions again")

@@ -81,10 +81,18 @@ def first_keyframe_error_cm(steps: list[dict[str, Any]], arms: tuple[str, ...] =
             for i, (a, b) in enumerate(zip(executed, expert))}
 
 
+def quat_angle_deg(a: np.ndarray, b: np.ndarray) -> float:
+    """The angle (degrees) of the rotation between two unit quaternions (either sign)."""
+    dot = abs(float(np.dot(a / np.linalg.norm(a), b / np.linalg.norm(b))))
+    return float(np.degrees(2 * np.arccos(min(dot, 1.0))))
+
+
 def first_keyframe_summary(logs: list[list[dict[str, Any]]]) -> dict[str, float] | None:
     """Per arm, the median distance (cm) of the first executed position from the expert's over ``logs``' episodes,
-    and, where the policy logs it, the median size of the residual it added there: a large residual that still
-    lands far from the expert says the prior's proposal was far off and the residual could not carry it."""
+    and, where the policy logs them, the median size of the residual it added there (a large residual that still
+    lands far from the expert says the prior's proposal was far off and the residual could not carry it) and the
+    median angle (degrees) between the prior's proposed orientation and the expert's (a grasp yawed half a turn is
+    far in angle however near in place)."""
     errors = [e for e in (first_keyframe_error_cm(steps) for steps in logs) if e]
     if not errors:
         return None
@@ -96,6 +104,12 @@ def first_keyframe_summary(logs: list[list[dict[str, Any]]]) -> dict[str, float]
         for a in (steps[0].get("policy") or {}).get("arms", []):
             if a.get("residual_cm") is not None:
                 values.setdefault(f"{a['arm']} residual", []).append(float(a["residual_cm"]))
+        expert = steps[0].get("expert")
+        for a in (steps[0].get("policy") or {}).get("arms", []) if expert is not None else []:
+            i = ARM_NAMES_BIMANUAL.index(a["arm"]) if a.get("arm") in ARM_NAMES_BIMANUAL else -1
+            if a.get("prior") is not None and 0 <= i < len(expert):
+                values.setdefault(f"{a['arm']} prior turn", []).append(
+                    quat_angle_deg(np.asarray(a["prior"][3:7]), np.asarray(expert[i][3:7])))
     return {name: round(float(np.median(v)), 1) for name, v in values.items()}
 
 
@@ -293,7 +307,8 @@ def explain_text(rows: list[dict[str, Any]], task: str) -> str:
             lines += [f"    {n:3d} x {where}" for where, n in r["first_divergence"].items()]
         for outcome, cm in r["first_keyframe_cm"].items():
             if cm:
-                lines.append(f"  first keyframe, {outcome} (median cm from the expert; residual added): "
+                lines.append(f"  first keyframe, {outcome} (median cm from the expert; residual added; prior turn: "
+                             "degrees from the expert's): "
                              + ", ".join(f"{name} {v}" for name, v in cm.items()))
         if r["held_arm_keyframes"]:
             lines.append(f"  keyframes with an arm held: {r['held_arm_keyframes']}")

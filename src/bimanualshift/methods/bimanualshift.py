@@ -170,10 +170,13 @@ def prior_world_action(step: ArmStep) -> np.ndarray:
 def decision_log(d: ArmDecision) -> dict:
     """One arm's keyframe log entry (plain JSON values)."""
     prior = prior_world_action(d.step)
-    return {"arm": d.arm, "prior": np.round(prior[:7], 4).tolist(),
-            "prior_gripper_open": round(float(d.step.prior.gripper_open[0]), 4),
-            "final": np.round(d.action[:7], 4).tolist(), "gripper": float(d.action[7]), "held": d.held,
-            "residual_cm": round(100 * float(np.linalg.norm(d.action[:3] - prior[:3])), 2)}
+    log = {"arm": d.arm, "prior": np.round(prior[:7], 4).tolist(),
+           "prior_gripper_open": round(float(d.step.prior.gripper_open[0]), 4),
+           "final": np.round(d.action[:7], 4).tolist(), "gripper": float(d.action[7]), "held": d.held,
+           "residual_cm": round(100 * float(np.linalg.norm(d.action[:3] - prior[:3])), 2)}
+    if d.step.asked:  # the prior was asked another instruction (--prior-instruction): which one, per arm
+        log["prior_asked"] = d.step.asked
+    return log
 
 
 def save_residual(directory: str | Path, residual: ResidualPolicy, extra: dict[str, Any],

@@ -28,6 +28,7 @@ class ArmStep:
     other_proprio: np.ndarray  # (8,) the other arm, in this arm's frame
     prior: PriorOutput  # batch of one, arm frame
     goal: np.ndarray  # (GOAL_GEOMETRY_DIM,) the goal's location in this arm's frame, from the projection
+    asked: str = ""  # what the prior was asked when not the episode's instruction (``--prior-instruction``)
 
 
 class FrozenPriorStep:
@@ -58,7 +59,10 @@ class FrozenPriorStep:
     def text(self, instruction: str, features: np.ndarray | None = None) -> torch.Tensor:
         """The prior's instruction embedding (batch of one) for an episode given ``instruction``, for an arm that
         observes ``features`` (``chooser_features``; needed with an instruction chooser)."""
-        text = self.prior_texts([instruction], None if features is None else np.atleast_2d(features))[0]
+        return self.embedding(self.prior_texts([instruction], None if features is None else np.atleast_2d(features))[0])
+
+    def embedding(self, text: str) -> torch.Tensor:
+        """The prior's embedding (batch of one) of ``text``, encoded once per step object."""
         if text not in self._embeddings:
             self._embeddings[text] = torch.as_tensor(self.text_encoder.encode([text]))
         return self._embeddings[text]
@@ -78,15 +82,18 @@ class FrozenPriorStep:
         frames = arm_frames(obs)
         steps = {}
         for arm in obs.scene.arm_names:
-            features = chooser_features(per_arm[arm].goal, per_arm[arm].proprio, per_arm[arm].other_proprio)
-            text = self.text(obs.instruction, features if self.instruction_chooser is not None else None)
+            features = (chooser_features(per_arm[arm].goal, per_arm[arm].proprio, per_arm[arm].other_proprio)
+                        if self.instruction_chooser is not None else None)
+            asked = self.prior_texts([obs.instruction], features)[0]
+            text = self.embedding(asked)
             proprio = self.prior.arm_proprio(per_arm[arm].proprio, obs.keyframe_index)
             scene = self.prior.observation_input(per_arm[arm].voxels, per_arm[arm].points)
             inputs = (torch.as_tensor(scene)[None], torch.as_tensor(proprio)[None], text)
             out = self.prior.predict(*inputs)
             if self.proposal_features:
                 out.proposal_features = self.prior.proposal_features(*inputs, out)
-            steps[arm] = ArmStep(frames[arm], proprio, per_arm[arm].other_proprio, out, per_arm[arm].goal)
+            steps[arm] = ArmStep(frames[arm], proprio, per_arm[arm].other_proprio, out, per_arm[arm].goal,
+                                 "" if asked == obs.instruction else asked)
         return steps
 
 
