@@ -208,7 +208,9 @@ def test_explain_reports_the_first_keyframe_s_error_and_residual_for_failures_an
 
 
 def test_explain_reports_how_far_the_prior_s_first_proposal_turns_from_the_expert_s(tmp_path: Path) -> None:
-    half_turn = [0.0, 0.0, 1.0, 0.0]  # yawed 180 degrees from the identity the rows below hold (x, y, z, w)
+    r = np.sqrt(0.5)
+    quarter_turn = [0.0, 0.0, r, r]  # yawed 90 degrees about the approach axis from the rows' identity (x, y, z, w)
+    half_turn = [0.0, 0.0, 1.0, 0.0]  # the same grasp for a parallel gripper
 
     def first(quat: list[float]) -> dict:
         return {**_step(0, [_row(0.5), _row(0.2)], [_row(0.5), _row(0.2)]),
@@ -216,15 +218,41 @@ def test_explain_reports_how_far_the_prior_s_first_proposal_turns_from_the_exper
                                     {"arm": "right", "prior": _row(0.2)[:7], "residual_cm": 1.0}]}}
 
     (tmp_path / "episodes.jsonl").write_text("".join(
-        json.dumps({"task": "t", "method": "m", "seed": s, "success": s == 0, "keyframes": 1, "stages_done": 0})
-        + "\n" for s in range(2)))
+        json.dumps({"task": "t", "method": "m", "seed": s, "success": s < 2, "keyframes": 1, "stages_done": 0})
+        + "\n" for s in range(3)))
     (tmp_path / "keyframes.jsonl").write_text("".join(
         json.dumps({"task": "t", "method": "m", "seed": s, "steps": [first(q)]}) + "\n"
-        for s, q in ((0, _row(0.5)[3:7]), (1, half_turn))))
+        for s, q in ((0, _row(0.5)[3:7]), (1, half_turn), (2, quarter_turn))))
     (row,) = explain_rows(tmp_path, "t")
-    assert row["first_keyframe_cm"]["successes"]["left prior turn"] == 0.0
-    assert row["first_keyframe_cm"]["failures"]["left prior turn"] == pytest.approx(180.0)
+    assert row["first_keyframe_cm"]["successes"]["left prior turn"] == pytest.approx(0.0, abs=1e-3)
+    assert row["first_keyframe_cm"]["failures"]["left prior turn"] == pytest.approx(90.0)
     assert row["first_keyframe_cm"]["failures"]["right prior turn"] == 0.0
+
+
+def test_explain_shows_where_failures_part_from_successes_when_both_diverge_first_at_the_same_place(
+        tmp_path: Path) -> None:
+    # every episode's left arm starts 5 cm off (the first divergence of all four); the failures' right arm then
+    # lands 8 cm off at keyframe 2 where the successes' lands 1 cm off
+    def steps(right_off: float) -> list[dict]:
+        return [_step(0, [_row(0.55), _row(0.2)], [_row(0.5), _row(0.2)]),
+                _step(1, [_row(0.5), _row(0.2)], [_row(0.5), _row(0.2)]),
+                _step(2, [_row(0.5), _row(0.2 + right_off)], [_row(0.5), _row(0.2)])]
+
+    offsets = {0: 0.01, 1: 0.01, 2: 0.08, 3: 0.08}
+    (tmp_path / "episodes.jsonl").write_text("".join(
+        json.dumps({"task": "t", "method": "m", "seed": s, "success": s < 2, "keyframes": 3, "stages_done": 0}) + "\n"
+        for s in offsets))
+    (tmp_path / "keyframes.jsonl").write_text("".join(
+        json.dumps({"task": "t", "method": "m", "seed": s, "steps": steps(dx)}) + "\n" for s, dx in offsets.items()))
+    (row,) = explain_rows(tmp_path, "t")
+    assert row["first_divergence"] == {"k0 left (position)": 2}
+    assert row["successes_first_divergence"] == {"k0 left (position)": 2}
+    assert row["keyframe_profile"]["failures"]["right"] == [[0.0, 0.0], [0.0, 0.0], [8.0, 0.0]]
+    assert row["keyframe_profile"]["successes"]["right"][2] == [1.0, 0.0]
+    text = explain_text([row], "t")
+    assert "where the successes diverge first too: 2 x k0 left (position)" in text
+    assert "failures part most from the successes at k2 right (position): median 8.0 against 1.0 cm" in text
+    assert "right from the expert per keyframe (cm/degrees, failures | successes): k0 0/0 | 0/0" in text
 
 
 def test_explained_seeds_are_the_seeds_the_rows_cover() -> None:

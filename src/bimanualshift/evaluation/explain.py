@@ -28,6 +28,8 @@ TOLERANCE_M, TOLERANCE_DEG = 0.03, 20.0
 # Which arm leads: the one the expert's plan moves farther over its first keyframes, when it moves at least
 # LEAD_RATIO times as far as the other (symmetric plans, both arms reaching together, have no leader).
 LEAD_KEYFRAMES, LEAD_RATIO = 6, 2.0
+# The smallest gap between the failures' and the successes' median errors worth naming, in tolerances (1.5 cm, 10°)
+GAP_SHOWN = 0.5
 
 
 @dataclass(frozen=True)
@@ -81,18 +83,12 @@ def first_keyframe_error_cm(steps: list[dict[str, Any]], arms: tuple[str, ...] =
             for i, (a, b) in enumerate(zip(executed, expert))}
 
 
-def quat_angle_deg(a: np.ndarray, b: np.ndarray) -> float:
-    """The angle (degrees) of the rotation between two unit quaternions (either sign)."""
-    dot = abs(float(np.dot(a / np.linalg.norm(a), b / np.linalg.norm(b))))
-    return float(np.degrees(2 * np.arccos(min(dot, 1.0))))
-
-
 def first_keyframe_summary(logs: list[list[dict[str, Any]]]) -> dict[str, float] | None:
     """Per arm, the median distance (cm) of the first executed position from the expert's over ``logs``' episodes,
     and, where the policy logs them, the median size of the residual it added there (a large residual that still
     lands far from the expert says the prior's proposal was far off and the residual could not carry it) and the
-    median angle (degrees) between the prior's proposed orientation and the expert's (a grasp yawed half a turn is
-    far in angle however near in place)."""
+    median angle (degrees) between the prior's proposed orientation and the expert's (a half turn about the
+    approach axis counting as none, as in :func:`first_divergence`)."""
     errors = [e for e in (first_keyframe_error_cm(steps) for steps in logs) if e]
     if not errors:
         return None
@@ -109,8 +105,48 @@ def first_keyframe_summary(logs: list[list[dict[str, Any]]]) -> dict[str, float]
             i = ARM_NAMES_BIMANUAL.index(a["arm"]) if a.get("arm") in ARM_NAMES_BIMANUAL else -1
             if a.get("prior") is not None and 0 <= i < len(expert):
                 values.setdefault(f"{a['arm']} prior turn", []).append(
-                    quat_angle_deg(np.asarray(a["prior"][3:7]), np.asarray(expert[i][3:7])))
+                    gripper_angle_deg(np.asarray(a["prior"][3:7]), np.asarray(expert[i][3:7])))
     return {name: round(float(np.median(v)), 1) for name, v in values.items()}
+
+
+def keyframe_profile(logs: list[list[dict[str, Any]]], arms: tuple[str, ...] = ARM_NAMES_BIMANUAL
+                     ) -> dict[str, list[list[float] | None]]:
+    """Per arm and keyframe index, the median [cm, degrees] by which the executed action lies from the expert's over
+    ``logs``' episodes (None where fewer than half of them reached that keyframe within the expert's plan). Set
+    beside the successes' profile, it shows where the failures part from them, which the first divergence alone
+    does not when the successes diverge at the same place."""
+    cells: dict[str, dict[int, list[tuple[float, float]]]] = {}
+    for steps in logs:
+        for row in steps:
+            if row["expert"] is None:
+                break
+            for i, (mine, theirs) in enumerate(zip(np.asarray(row["executed"]), np.asarray(row["expert"]))):
+                arm = arms[i] if i < len(arms) else str(i)
+                cells.setdefault(arm, {}).setdefault(int(row["keyframe"]), []).append(
+                    (100 * float(np.linalg.norm(mine[:3] - theirs[:3])), gripper_angle_deg(mine[3:7], theirs[3:7])))
+    profile = {}
+    for arm, by_keyframe in cells.items():
+        last = max(by_keyframe)
+        profile[arm] = [None if len(by_keyframe.get(k, [])) * 2 < len(logs) else
+                        [round(float(np.median([c for c, _ in by_keyframe[k]])), 1),
+                         round(float(np.median([d for _, d in by_keyframe[k]])), 1)] for k in range(last + 1)]
+    return profile
+
+
+def widest_gap(failures: dict[str, list], successes: dict[str, list]) -> dict[str, Any] | None:
+    """The keyframe, arm and measure at which the failures' median error exceeds the successes' most, in units of
+    the divergence tolerances (3 cm, 20 degrees), or None when they never exceed them by ``GAP_SHOWN``."""
+    best = None
+    for arm, rows in failures.items():
+        for k, (bad, good) in enumerate(zip(rows, successes.get(arm, []))):
+            if bad is None or good is None:
+                continue
+            for j, (what, unit) in enumerate((("position", 100 * TOLERANCE_M), ("rotation", TOLERANCE_DEG))):
+                gap = (bad[j] - good[j]) / unit
+                if gap >= GAP_SHOWN and (best is None or gap > best["gap"]):
+                    best = {"keyframe": k, "arm": arm, "what": what, "failures": bad[j], "successes": good[j],
+                            "gap": round(gap, 2)}
+    return best
 
 
 def _retrieval(steps: list[dict[str, Any]]) -> dict[str, Any] | None:
@@ -278,6 +314,11 @@ def explain_rows(folder: str | Path, task: str, methods: list[str] | None = None
             # episode), so it separates a bad start from a later slip
             "first_keyframe_cm": {"failures": first_keyframe_summary([logs[k] for k in failed]),
                                   "successes": first_keyframe_summary([logs[k] for k in mine if k not in failed])},
+            "keyframe_profile": {"failures": keyframe_profile([logs[k] for k in failed]),
+                                 "successes": keyframe_profile([logs[k] for k in mine if k not in failed])},
+            "successes_first_divergence": dict(Counter(
+                f"k{d.keyframe} {d.arm} ({d.what})" if d else "never"
+                for d in (first_divergence(logs[k]) for k in mine if k not in failed)).most_common()),
             "held_arm_keyframes": held,
             "held_by_arm_and_stage": {arm: dict(sorted(v.items())) for arm, v in held_by_stage.items()},
             "same_lead_arm": dict(sorted(leads.items())),
@@ -305,6 +346,26 @@ def explain_text(rows: list[dict[str, Any]], task: str) -> str:
             lines.append(f"  stages reached by the failures: {stages}")
             lines.append("  first divergence from the expert (keyframe, arm, what):")
             lines += [f"    {n:3d} x {where}" for where, n in r["first_divergence"].items()]
+            common = {where: n for where, n in r.get("successes_first_divergence", {}).items()
+                      if where in r["first_divergence"]}
+            if common:
+                lines.append("  ... where the successes diverge first too: "
+                             + ", ".join(f"{n} x {where}" for where, n in common.items()))
+            profile = r.get("keyframe_profile") or {}
+            gap = widest_gap(profile.get("failures") or {}, profile.get("successes") or {})
+            if gap:
+                unit = "cm" if gap["what"] == "position" else "degrees"
+                lines.append(f"  failures part most from the successes at k{gap['keyframe']} {gap['arm']} "
+                             f"({gap['what']}): median {gap['failures']} against {gap['successes']} {unit} from the "
+                             "expert")
+            for arm in profile.get("failures") or {}:
+                rows = {o: (profile.get(o) or {}).get(arm) or [] for o in ("failures", "successes")}
+                cells = [f"k{k} " + " | ".join("-" if k >= len(rows[o]) or rows[o][k] is None
+                                                else f"{rows[o][k][0]:g}/{rows[o][k][1]:.0f}"
+                                                for o in ("failures", "successes"))
+                         for k in range(max(len(v) for v in rows.values()))]
+                lines.append(f"  {arm} from the expert per keyframe (cm/degrees, failures | successes): "
+                             + ", ".join(cells))
         for outcome, cm in r["first_keyframe_cm"].items():
             if cm:
                 lines.append(f"  first keyframe, {outcome} (median cm from the expert; residual added; prior turn: "
