@@ -133,3 +133,23 @@ def test_recorded_only_tabulates_the_methods_recorded_on_every_task_and_runs_not
     assert not (tmp_path / "runs").exists() and not (tmp_path / "data").exists()
     with pytest.raises(ValueError, match="no method has every episode"):
         run_study("table1", {"episodes": 3, "videos": 0}, "elsewhere", recorded_only=True)
+
+
+def test_recorded_only_leaves_out_a_study_run_not_yet_recorded(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    import json
+
+    from bimanualshift.data.seeds import split_seeds
+    from bimanualshift.evaluation.studies import TABLE1_TASKS, run_study
+
+    monkeypatch.chdir(tmp_path)
+    seeds = split_seeds("test", 2)
+    folder = tmp_path / "results" / "backbones" / "rvt_suite"  # one of three priors benchmarked
+    folder.mkdir(parents=True)
+    (folder / "episodes.jsonl").write_text("".join(
+        json.dumps({"task": t, "method": "bimanualshift", "seed": s, "success": True, "keyframes": 3}) + "\n"
+        for t in TABLE1_TASKS for s in seeds))
+    summary = json.loads(run_study("backbones", {"episodes": 2, "videos": 0}, "results", recorded_only=True
+                                   ).read_text())
+    assert {r["run"] for r in summary["rows"]} == {"prior rvt_suite"}
+    assert [r["success"] for r in summary["rows"] if r["task"] == "average"] == [1.0]
+    assert not (tmp_path / "runs").exists() and not (tmp_path / "data").exists()

@@ -85,8 +85,9 @@ StudyOverrides.__module__ = __name__
 class StudyArgs:
     name: Annotated[Literal[STUDIES], tyro.conf.Positional]  # type: ignore[valid-type]  # the study to run
     results: str = "results"  # where results/<study>/ goes
-    # tabulate only the methods whose every episode is recorded (in every run that lists them): nothing trains
-    # or rolls out, so a half-finished study gives its finished rows
+    # tabulate only the methods whose every episode is recorded (in every run of their group; a run with none,
+    # e.g. a backbone not yet benchmarked, is left out): nothing trains or rolls out, so a half-finished study
+    # gives its finished rows
     recorded_only: bool = False
     overrides: StudyOverrides = field(default_factory=StudyOverrides)
 

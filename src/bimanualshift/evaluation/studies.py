@@ -86,15 +86,18 @@ def study_runs(name: str, root: str = "results") -> list[tuple[str, BenchConfig]
     return [(label, replace(cfg, out=f"{root}/{cfg.out}")) for label, cfg in STUDY_TABLE[name].runs]
 
 
-def combined_rows(runs: list[tuple[str, list[dict[str, Any]]]]) -> list[dict[str, Any]]:
+def combined_rows(runs: list[tuple[str, list[dict[str, Any]]]], labelled: bool | None = None
+                  ) -> list[dict[str, Any]]:
     """One study's rows from its runs' rows. Runs that share a label form one group (Table I's two halves); each
     group's per-run averages are replaced by one average per method over all of the group's tasks. Rows carry
-    their group's label as ``run`` when the study has more than one group."""
+    their group's label as ``run`` when ``labelled`` (by default: when there is more than one group; a study
+    planned with several groups labels its rows however many of them are tabulated)."""
     groups = list(dict.fromkeys(label for label, _ in runs))
+    labelled = len(groups) > 1 if labelled is None else labelled
     out = []
     for group in groups:
         rows = [r for label, run_rows in runs if label == group for r in run_rows if r["task"] != "average"]
-        if len(groups) > 1:
+        if labelled:
             rows = [{**r, "run": group} for r in rows]
         averages = []
         for key in dict.fromkeys((r["method"], r.get("perturbation")) for r in rows):
@@ -141,15 +144,17 @@ def study_plan(name: str, overrides: dict[str, Any] | None = None, root: str = "
 
 
 def recorded_plan(plan: list[tuple[str, BenchConfig]]) -> list[tuple[str, BenchConfig]]:
-    """The plan narrowed to the methods whose every episode is recorded in every run that lists them, so that
-    running it trains and rolls out nothing (a method recorded on one of Table I's halves only is left out)."""
-    complete = {m for _, cfg in plan for m in cfg.methods}
-    for _, cfg in plan:
-        complete -= set(cfg.methods) - set(recorded_methods(cfg))
-    if not complete:
+    """The plan narrowed, per group of runs sharing a label, to the methods whose every episode is recorded in
+    every run of the group, so that running it trains and rolls out nothing. A method recorded on one of Table I's
+    halves only is left out; a group with no such method (a backbone not yet benchmarked) is left out whole."""
+    complete: dict[str, set[str]] = {}
+    for label, cfg in plan:
+        complete.setdefault(label, set(cfg.methods))
+        complete[label] &= set(recorded_methods(cfg))
+    if not any(complete.values()):
         raise ValueError("no method has every episode of this study recorded yet; run it without --recorded-only")
-    return [(label, replace(cfg, methods=[m for m in cfg.methods if m in complete])) for label, cfg in plan
-            if any(m in complete for m in cfg.methods)]
+    return [(label, replace(cfg, methods=[m for m in cfg.methods if m in complete[label]])) for label, cfg in plan
+            if complete[label]]
 
 
 def run_study(name: str, overrides: dict[str, Any] | None = None, root: str = "results",
@@ -168,7 +173,7 @@ def run_study(name: str, overrides: dict[str, Any] | None = None, root: str = "r
         seeds = {**seeds, **{f"{label} {k}": v for k, v in result["seeds"].items()}}
         runs.append((label, result["rows"]))
         configs.append({"run": label, **asdict(cfg)})
-    rows = combined_rows(runs)
+    rows = combined_rows(runs, labelled=len({label for label, _ in plan}) > 1)
     out = Path(root) / name
     out.mkdir(parents=True, exist_ok=True)
     targets = study_targets(name, rows)
