@@ -364,3 +364,13 @@ def test_memory_variants_share_the_full_method_s_training_and_refine_in_folders_
                                  ["lift_ball"])
     assert {k: r["inserted_into_memory"] for k, r in records.items()} == {
         f"lift_ball/{m}": i for i, m in enumerate(names)}
+
+
+def test_a_plot_title_names_the_split_its_episodes_come_from() -> None:
+    from bimanualshift.evaluation.plots import plot_title
+
+    rows = [{"task": "t", "method": "m", "demos": 30, "episodes": 30}]
+    assert plot_title({"rows": rows, "seeds": {"test": [1]}}).startswith("30 demos, 30 test episodes per task")
+    assert "30 validation episodes per task" in plot_title(
+        {"rows": rows, "seeds": {"train": [0], "validation": [2], "validation_rollouts": [3]}})
+    assert plot_title({"rows": rows, "study": "backbones"}) == "study backbones"

@@ -385,9 +385,9 @@ def run_bench(cfg: BenchConfig, command: str | None = None) -> Path:
     wanted = {(j.task, j.method, j.perturbation, j.seed) for j in jobs}
     episodes = [e for e in read_episodes(log) if _key(e) in wanted]
     rows = bench_rows(episodes, cfg.methods, tasks, cfg.demos, cfg.perturbations)
-    print_success_table(rows, f"bench: {cfg.demos} demos, {cfg.episodes} test episodes per task")
+    print_success_table(rows, f"bench: {cfg.demos} demos, {cfg.episodes} {cfg.evaluate_on} episodes per task")
     if rows:  # (none when only training was asked for: --episodes 0)
-        title = f"{cfg.demos} demos, {cfg.episodes} test episodes per task (95 % Wilson intervals)"
+        title = f"{cfg.demos} demos, {cfg.episodes} {cfg.evaluate_on} episodes per task (95 % Wilson intervals)"
         draw_plots(out, rows, title)
         atomic_write_text(out / "table.md", bench_table(rows) + "\n" + stage_table(rows))
     recorded_episodes = read_episodes(log)

@@ -157,6 +157,17 @@ def draw_plots(out: Path, rows: list[dict[str, Any]], title: str) -> None:
     stage_plot(out / "stages.png", rows, title)
 
 
+def plot_title(result: dict[str, Any]) -> str:
+    """A bench or study result's plot title: the study, or the demos and the episodes per task and their split
+    (bench records validation rollouts' seeds as ``validation_rollouts``)."""
+    if result.get("study"):
+        return f"study {result['study']}"
+    first = result["rows"][0]
+    split = "validation" if "validation_rollouts" in (result.get("seeds") or {}) else "test"
+    return (f"{first.get('demos', '?')} demos, {first.get('episodes', '?')} {split} episodes per task "
+            "(95 % Wilson intervals)")
+
+
 def redraw_plots(folder: str | Path) -> list[Path]:
     """Redraw the plots of a bench or study result folder from its ``summary.json``."""
     folder = Path(folder)
@@ -167,8 +178,5 @@ def redraw_plots(folder: str | Path) -> list[Path]:
     result = json.loads(summary.read_text())
     if not result.get("rows") or "task" not in result["rows"][0]:
         raise ValueError(f"{summary} holds no benchmark rows (task, method, success); it is not a bench result")
-    first = result["rows"][0]
-    title = (f"study {result['study']}" if result.get("study") else f"{first.get('demos', '?')} demos, "
-             f"{first.get('episodes', '?')} test episodes per task (95 % Wilson intervals)")
-    draw_plots(folder, result["rows"], title)
+    draw_plots(folder, result["rows"], plot_title(result))
     return [p for p in (folder / "success.png", folder / "stages.png") if p.is_file()]
