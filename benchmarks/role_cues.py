@@ -25,6 +25,7 @@ from bimanualshift.data.frames import KeyframeObservation, scene_of_env
 from bimanualshift.data.seeds import split_seeds
 from bimanualshift.evaluation.report import write_result
 from bimanualshift.geometry.voxels import VoxelGrid
+from bimanualshift.methods.instruction_chooser import InstructionChooser
 from bimanualshift.perception.goal_geometry import goal_world_points
 from bimanualshift.perception.observation import DEFAULT_ARM_BOUNDS, ArmObservationBuilder, arm_frames
 from bimanualshift.perception.projection import ArmProjection
@@ -50,30 +51,20 @@ def horizontal_orientation(points_arm: np.ndarray) -> np.ndarray:
     return np.array([np.cos(angle) * anisotropy, np.sin(angle) * anisotropy, anisotropy])
 
 
-def fit_logistic(x: np.ndarray, y: np.ndarray, l2: float = 1e-2, steps: int = 2000) -> np.ndarray:
-    """Weights (with the bias last) of an L2-regularised logistic regression by gradient descent."""
-    xb = np.c_[x, np.ones(len(x))]
-    w = np.zeros(xb.shape[1])
-    for _ in range(steps):
-        p = 1.0 / (1.0 + np.exp(-np.clip(xb @ w, -30, 30)))
-        w -= 0.5 * (xb.T @ (p - y) / len(y) + l2 * np.r_[w[:-1], 0.0])
-    return w
-
-
 def cross_validated_accuracy(x: np.ndarray, y: np.ndarray, scene: np.ndarray, arm: np.ndarray,
                              train_scenes: int | None = None) -> float:
     """Held-out accuracy over ``FOLDS`` folds of scenes, one probe per arm (the Manager tells the arms apart by
-    the other arm's side, and the role is the arm's side crossed with the scene)."""
+    the other arm's side, and the role is the arm's side crossed with the scene). The probe is the library's
+    instruction chooser (a standardised, L2-regularised logistic regression) with the roles as its classes."""
     folds = scene % FOLDS
+    labels = np.where(y > 0.5, "tray", "door")
     correct = 0
     for f, a in ((f, a) for f in range(FOLDS) for a in np.unique(arm)):
         train, test = (folds != f) & (arm == a), (folds == f) & (arm == a)
         if train_scenes is not None:  # the first scenes outside the fold, as a demo set of that size
             train &= np.isin(scene, np.unique(scene[folds != f])[:train_scenes])
-        mean, std = x[train].mean(0), x[train].std(0) + 1e-6
-        w = fit_logistic((x[train] - mean) / std, y[train])
-        logits = np.c_[(x[test] - mean) / std, np.ones(int(test.sum()))] @ w
-        correct += int(np.sum((logits > 0) == (y[test] > 0.5)))
+        probe = InstructionChooser.fit(x[train], list(labels[train]))
+        correct += int(np.sum(np.asarray(probe.choose(x[test])) == labels[test]))
     return correct / len(y)
 
 
