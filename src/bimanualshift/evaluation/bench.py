@@ -22,7 +22,7 @@ import numpy as np
 
 from bimanualshift.configs import DEFAULT_PRIOR
 from bimanualshift.data.seeds import split_seeds
-from bimanualshift.evaluation.plots import draw_plots
+from bimanualshift.evaluation.plots import bench_title, draw_plots
 from bimanualshift.evaluation.stats import SuccessRate, SuccessRow
 from bimanualshift.evaluation.tables import bench_table, stage_table
 from bimanualshift.registry import METHODS, REFINE_EPISODES, REFINE_FOLDER, MethodSpec, TrainRequest, get_method
@@ -387,8 +387,7 @@ def run_bench(cfg: BenchConfig, command: str | None = None) -> Path:
     rows = bench_rows(episodes, cfg.methods, tasks, cfg.demos, cfg.perturbations)
     print_success_table(rows, f"bench: {cfg.demos} demos, {cfg.episodes} {cfg.evaluate_on} episodes per task")
     if rows:  # (none when only training was asked for: --episodes 0)
-        title = f"{cfg.demos} demos, {cfg.episodes} {cfg.evaluate_on} episodes per task (95 % Wilson intervals)"
-        draw_plots(out, rows, title)
+        draw_plots(out, rows, bench_title(cfg.demos, cfg.episodes, cfg.evaluate_on))
         atomic_write_text(out / "table.md", bench_table(rows) + "\n" + stage_table(rows))
     recorded_episodes = read_episodes(log)
     recorded = seeds if cfg.evaluate_on == "test" else {

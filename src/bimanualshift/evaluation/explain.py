@@ -39,6 +39,12 @@ class Divergence:
     what: str  # "position / rotation / gripper", or "past the expert's plan"
 
 
+def pose_error(mine: np.ndarray, theirs: np.ndarray) -> tuple[float, float]:
+    """(metres, degrees) between an executed and an expert action row: the positions' distance and the grippers'
+    angle, a half turn about the approach axis counting as none (``gripper_angle_deg``)."""
+    return float(np.linalg.norm(mine[:3] - theirs[:3])), gripper_angle_deg(mine[3:7], theirs[3:7])
+
+
 def first_divergence(steps: list[dict[str, Any]], arms: tuple[str, ...] = ARM_NAMES_BIMANUAL) -> Divergence | None:
     """The first keyframe at which an arm's executed action strays from the expert's at the same index (a
     gripper turned a half turn about its approach axis is the same grasp: ``gripper_angle_deg``)."""
@@ -47,9 +53,10 @@ def first_divergence(steps: list[dict[str, Any]], arms: tuple[str, ...] = ARM_NA
             return Divergence(row["keyframe"], "-", "past the expert's plan")
         executed, expert = np.asarray(row["executed"]), np.asarray(row["expert"])
         for i, (mine, theirs) in enumerate(zip(executed, expert)):
+            metres, degrees = pose_error(mine, theirs)
             what = [name for name, off in (
-                ("position", np.linalg.norm(mine[:3] - theirs[:3]) > TOLERANCE_M),
-                ("rotation", gripper_angle_deg(mine[3:7], theirs[3:7]) > TOLERANCE_DEG),
+                ("position", metres > TOLERANCE_M),
+                ("rotation", degrees > TOLERANCE_DEG),
                 ("gripper", (mine[7] > 0.5) != (theirs[7] > 0.5))) if off]
             if what:
                 return Divergence(row["keyframe"], arms[i] if i < len(arms) else str(i), " + ".join(what))
@@ -122,8 +129,8 @@ def keyframe_profile(logs: list[list[dict[str, Any]]], arms: tuple[str, ...] = A
                 break
             for i, (mine, theirs) in enumerate(zip(np.asarray(row["executed"]), np.asarray(row["expert"]))):
                 arm = arms[i] if i < len(arms) else str(i)
-                cells.setdefault(arm, {}).setdefault(int(row["keyframe"]), []).append(
-                    (100 * float(np.linalg.norm(mine[:3] - theirs[:3])), gripper_angle_deg(mine[3:7], theirs[3:7])))
+                metres, degrees = pose_error(mine, theirs)
+                cells.setdefault(arm, {}).setdefault(int(row["keyframe"]), []).append((100 * metres, degrees))
     profile = {}
     for arm, by_keyframe in cells.items():
         last = max(by_keyframe)

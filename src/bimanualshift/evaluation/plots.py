@@ -157,6 +157,11 @@ def draw_plots(out: Path, rows: list[dict[str, Any]], title: str) -> None:
     stage_plot(out / "stages.png", rows, title)
 
 
+def bench_title(demos: object, episodes: object, split: str) -> str:
+    """A bench's plot title: demos, episodes per task and the split they come from."""
+    return f"{demos} demos, {episodes} {split} episodes per task (95 % Wilson intervals)"
+
+
 def plot_title(result: dict[str, Any]) -> str:
     """A bench or study result's plot title: the study, or the demos and the episodes per task and their split
     (bench records validation rollouts' seeds as ``validation_rollouts``)."""
@@ -164,8 +169,7 @@ def plot_title(result: dict[str, Any]) -> str:
         return f"study {result['study']}"
     first = result["rows"][0]
     split = "validation" if "validation_rollouts" in (result.get("seeds") or {}) else "test"
-    return (f"{first.get('demos', '?')} demos, {first.get('episodes', '?')} {split} episodes per task "
-            "(95 % Wilson intervals)")
+    return bench_title(first.get("demos", "?"), first.get("episodes", "?"), split)
 
 
 def redraw_plots(folder: str | Path) -> list[Path]:
