@@ -132,6 +132,12 @@ def test_bench_runs_resumes_and_reports(demo_root: Path, tmp_path: Path) -> None
     # The folder's episodes came from 2 demos: a 3-demo run is refused before any work, not silently mixed in.
     with pytest.raises(ValueError, match=r"demos=2 there, 3 now.*own --out"):
         run_bench(replace(cfg, demos=3), command="test")
+    # A third episode asked for while the runs behind the first two are gone: a new model would finish another
+    # model's rows, so the benchmark stops and says how to go on.
+    with pytest.raises(ValueError, match=r"2 test episodes of bimanualshift on push_two_buttons are recorded.*"
+                                         r"--rerun bimanualshift"):
+        run_bench(replace(cfg, episodes=3), command="test")
+    assert sorted(map(json.dumps, read_episodes(log))) == sorted(map(json.dumps, first))
     # --episodes 0 trains every method and rolls nothing out.
     train_only = replace(cfg, episodes=0, methods=["bimanualshift"], runs=str(tmp_path / "runs_only"),
                          out=str(tmp_path / "out_only"))
