@@ -149,18 +149,18 @@ def check_training_run(request: TrainRequest, refine_folder: str = REFINE_FOLDER
                     "a refinement run", fix)
 
 
-
-def check_model_behind_episodes(request: TrainRequest, method: str, recorded: int,
-                                refine_folder: str = REFINE_FOLDER, refine: bool = False) -> None:
-    """Episodes already recorded for (task, method) came from the model in ``request.out``; with that run gone,
-    training afresh would let a second model finish the first one's table (retraining the same settings moves a
-    long task by several points), so the benchmark stops instead."""
-    run = Path(request.out) / refine_folder if refine else Path(request.out)
+def check_model_behind_episodes(request: TrainRequest, method: str, recorded: int) -> None:
+    """Episodes already recorded for (task, method) came from the model in ``request.out`` (its refinement folder
+    for a refined method); with that run gone, training afresh would let a second model finish the first one's
+    table (retraining the same settings moves a long task by several points), so the benchmark stops instead."""
+    spec = get_method(method)
+    run = Path(request.out) / spec.refine_folder if spec.refine else Path(request.out)
     if recorded and not (run / REQUEST_FILE).is_file():
         raise ValueError(f"{recorded} test episodes of {method} on {request.task} are recorded, but the training "
                          f"run they came from ({run}) is gone: a new model would finish another model's rows. "
                          f"Restore that folder, or pass --rerun {method} to evaluate every episode with a new model "
                          "(the recorded ones are kept under superseded/)")
+
 
 # "best": the fine-tuning step refinement handed on (step 0: the trained weights, unchanged) and its validation value
 REFINEMENT_FIELDS = ("scenes", "policy_successes", "corrected_successes", "correction_samples",
@@ -377,10 +377,9 @@ def run_bench(cfg: BenchConfig, command: str | None = None) -> Path:
         for method in cfg.methods:
             request = _request(cfg, task, method, training=method in pending)
             if method in pending:
-                spec = get_method(method)
-                recorded = sum(1 for k in done if k[0] == task and k[1] == method)
-                check_model_behind_episodes(request, method, recorded, spec.refine_folder, spec.refine)
-                check_training_run(request, spec.refine_folder)
+                recorded = sum(1 for k in done if k[:2] == (task, method))
+                check_model_behind_episodes(request, method, recorded)
+                check_training_run(request, get_method(method).refine_folder)
                 checkpoint = get_method(method).train(request)
             else:
                 print(f"[bench] {task} / {method}: every test episode is recorded; not retrained")
