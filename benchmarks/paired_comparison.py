@@ -4,10 +4,13 @@
         --methods balanced_residual gripper_down_quaternions
     .venv/bin/python benchmarks/paired_comparison.py results/generalisation/perturbations \
         --methods bimanualshift peract_lf --perturbation all
+    .venv/bin/python benchmarks/paired_comparison.py results/residual_space/object_boxes \
+        --methods object_boxes no_refinement --against results/residual_space/refine_memory
 
 Both methods roll out the same seeds, so the episodes where they disagree carry the whole difference: per task and
 over all tasks, how many each one wins and the exact two-sided sign test's p (``evaluation.stats``). Reads the
-folder's ``episodes.jsonl``; nothing is rolled out. ``--perturbation`` picks the episodes of one perturbation
+folder's ``episodes.jsonl`` (method B's from ``--against``'s when its episodes were recorded in another folder on the
+same seeds); nothing is rolled out. ``--perturbation`` picks the episodes of one perturbation
 (``none``, the default, for a folder without perturbations) or ``all`` of them, one row per task and perturbation.
 """
 
@@ -31,20 +34,26 @@ def main() -> None:
     parser.add_argument("--methods", nargs=2, required=True, metavar=("A", "B"))
     parser.add_argument("--perturbation", default="none",
                         help="the perturbation whose episodes are paired, or `all` (default: none)")
+    parser.add_argument("--against", default="",
+                        help="read method B's episodes from this bench folder instead (the same seeds, another run)")
     parser.add_argument("--out", default="", help="result file (default: FOLDER/paired_A_vs_B.json)")
     args = parser.parse_args()
     started = time.time()
     path = Path(args.folder) / "episodes.jsonl"
-    if not path.is_file():
-        sys.exit(f"error: {path} does not exist: pass a folder written by `bimanualshift bench` or `study`")
+    other = Path(args.against) / "episodes.jsonl" if args.against else path
+    for wanted in {path, other}:
+        if not wanted.is_file():
+            sys.exit(f"error: {wanted} does not exist: pass a folder written by `bimanualshift bench` or `study`")
     a, b = args.methods
     # a task's key is "task" for one perturbation, "task (perturbation)" for all of them
     success: dict[tuple[str, str, int], bool] = {}
     perturbations = set()
-    for row in read_records(path):  # a line cut short by a study still writing is skipped
+    records = [(row, a) for row in read_records(path)]  # a line cut short by a study still writing is skipped
+    records += [(row, b) for row in read_records(other)] if other != path else [(row, b) for row, _ in records]
+    for row, wanted in records:
         perturbation = row.get("perturbation", "none")
         perturbations.add(perturbation)
-        if row["method"] in (a, b) and args.perturbation in ("all", perturbation):
+        if row["method"] == wanted and args.perturbation in ("all", perturbation):
             task = row["task"] if args.perturbation != "all" else f"{row['task']} ({perturbation})"
             success[(row["method"], task, int(row["seed"]))] = bool(row["success"])
     if not success and args.perturbation not in perturbations:
@@ -62,7 +71,8 @@ def main() -> None:
         flags_b += task_b
         rows.append({"task": task, **_row(a, b, task_a, task_b)})
     if not rows:
-        sys.exit(f"error: {a} and {b} share no seed in {path}: check the method names")
+        sys.exit(f"error: {a} and {b} share no seed in {path}{f' and {other}' if other != path else ''}: check the "
+                 "method names")
     # "all" pools every row's pairs: the sign test counts a seed once per task and perturbation
     rows.append({"task": "all", **_row(a, b, flags_a, flags_b)})
     for row in rows:
@@ -71,7 +81,8 @@ def main() -> None:
     out = args.out or str(Path(args.folder) / f"paired_{a}_vs_{b}.json")
     command = " ".join(["python benchmarks/paired_comparison.py", *(shlex.quote(x) for x in sys.argv[1:])])
     write_result(out, command, seeds, started, rows,
-                 notes=f"episodes of {path} (perturbation {args.perturbation}) where both methods ran the seed; "
+                 notes=f"episodes of {path}{f' ({b}: {other})' if other != path else ''} (perturbation "
+                       f"{args.perturbation}) where both methods ran the seed; "
                        "wins: episodes one method solved and "
                        "the other did not; p: exact two-sided sign test")
     print(f"wrote {out}")

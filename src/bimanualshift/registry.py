@@ -191,6 +191,10 @@ register_method(_residual_method(
     "balanced_residual on validation seeds)", refine=False, retrieval=True, goal_extremities=True,
     schedule="cosine", beta=0.01, select_by="clipped_error", quaternion_sign="gripper_down"))
 register_method(_residual_method(
+    "object_boxes", "variant: the full method before refinement whose Manager also reads each goal noun's own box "
+    "(the tray's beside the oven's; the dirt's beside the dustpan's and the brush's) next to the union's box and "
+    "extremities (compare with no_refinement on validation seeds)", refine=False, retrieval=True, goal_objects=True))
+register_method(_residual_method(
     "keyframe_gate", "variant: goal_extremities with the output gate's factors chosen per keyframe (compare with "
     "no_refinement and goal_extremities on validation seeds)", refine=False, retrieval=True, goal_extremities=True,
     gate_per_keyframe=True, **EARLIER_TRAINING))

@@ -46,3 +46,20 @@ def test_an_unknown_perturbation_names_the_ones_recorded(tmp_path: Path) -> None
     done = _run(str(tmp_path / "f"), "--methods", "a", "b", "--perturbation", "fog")
     assert done.returncode != 0
     assert "glare, none" in done.stderr and "Traceback" not in done.stderr
+
+
+def test_method_b_from_another_folder(tmp_path: Path) -> None:
+    _write_episodes(tmp_path / "f")
+    rows = [{"task": "t", "method": "b", "perturbation": "none", "seed": seed, "success": True} for seed in (0, 1, 2, 9)]
+    (tmp_path / "g").mkdir()
+    (tmp_path / "g" / "episodes.jsonl").write_text("".join(json.dumps(r) + "\n" for r in rows))
+    done = _run(str(tmp_path / "f"), "--methods", "a", "b", "--against", str(tmp_path / "g"),
+                "--out", str(tmp_path / "against.json"))
+    assert done.returncode == 0, done.stderr
+    result = json.loads((tmp_path / "against.json").read_text())
+    rows = {r["task"]: r for r in result["rows"]}
+    # a's episodes from f (1, 1, 1), b's from g (all solved): no win either way; f's own b episodes are not read
+    assert (rows["t"]["pairs"], rows["t"]["a_wins"], rows["t"]["b_wins"]) == (3, 0, 0)
+    assert str(tmp_path / "g") in result["notes"]
+    missing = _run(str(tmp_path / "f"), "--methods", "a", "b", "--against", str(tmp_path / "nowhere"))
+    assert missing.returncode != 0 and "nowhere" in missing.stderr and "Traceback" not in missing.stderr

@@ -7,7 +7,14 @@ from bimanualshift.data.frames import KeyframeObservation
 from bimanualshift.geometry.cameras import depth_to_world_points
 from bimanualshift.geometry.frames import ArmFrame
 from bimanualshift.geometry.voxels import VoxelGrid
-from bimanualshift.perception.goal_geometry import GOAL_GEOMETRY_DIM, goal_geometry
+from bimanualshift.perception.goal_geometry import (
+    BOX_GEOMETRY_DIM,
+    GOAL_GEOMETRY_DIM,
+    OBJECT_SLOTS,
+    UNION_GEOMETRY_DIM,
+    goal_geometry,
+    object_boxes,
+)
 from bimanualshift.perception.observation import DEFAULT_ARM_BOUNDS, ArmObservationBuilder
 from bimanualshift.perception.projection import ArmProjection
 from bimanualshift.perception.segmenters.simulator import SimulatorSegmenter
@@ -30,8 +37,8 @@ def test_centroid_and_extent_in_the_arm_frame() -> None:
 def test_points_outside_the_workspace_or_too_few_count_as_unseen() -> None:
     frame = ArmFrame((0.0, 0.0, 0.0))
     far = np.full((50, 3), 5.0)
-    np.testing.assert_array_equal(goal_geometry(far, frame, BOUNDS), np.zeros(GOAL_GEOMETRY_DIM))
-    np.testing.assert_array_equal(goal_geometry(np.zeros((3, 3)), frame, BOUNDS), np.zeros(GOAL_GEOMETRY_DIM))
+    np.testing.assert_array_equal(goal_geometry(far, frame, BOUNDS), np.zeros(UNION_GEOMETRY_DIM))
+    np.testing.assert_array_equal(goal_geometry(np.zeros((3, 3)), frame, BOUNDS), np.zeros(UNION_GEOMETRY_DIM))
     mixed = np.r_[far, np.full((20, 3), 0.25)]  # the outliers are dropped, not averaged in
     np.testing.assert_allclose(goal_geometry(mixed, frame, BOUNDS)[:3], frame.points_to_arm(np.full((1, 3), 0.25))[0],
                                atol=1e-6)
@@ -58,9 +65,41 @@ def test_projection_locates_the_goal_object_of_a_real_scene(bimanual_episode_pat
         inside = np.all((in_arm >= DEFAULT_ARM_BOUNDS[:3]) & (in_arm <= DEFAULT_ARM_BOUNDS[3:]), axis=1)
         assert inside.sum() > 50
         np.testing.assert_allclose(geometry[:3], in_arm[inside].mean(0), atol=0.01)
+        # each named button gets its own box, in the goal nouns' order, after the union's box and extremities;
+        # a button outside this arm's workspace is not seen by it
+        seen = 0
+        for slot, prompt in enumerate(ep.goal_nouns):
+            button = next(i for i in buttons if prompt.split()[0] in ep.instance_colours[ep.instance_names[i]])
+            own = frame.points_to_arm(np.concatenate([depth_to_world_points(
+                obs.depth[c], obs.intrinsics[c], obs.extrinsics[c])[(obs.instance[c] == button) & (obs.depth[c] > 0)]
+                for c in range(len(obs.depth))]))
+            own = own[np.all((own >= DEFAULT_ARM_BOUNDS[:3]) & (own <= DEFAULT_ARM_BOUNDS[3:]), axis=1)]
+            box = geometry[UNION_GEOMETRY_DIM + slot * BOX_GEOMETRY_DIM:][:BOX_GEOMETRY_DIM]
+            assert box[9] == float(len(own) >= 10)
+            if len(own) >= 10:
+                np.testing.assert_allclose(box[:3], own.mean(0), atol=0.01)
+                seen += 1
+        assert seen >= 1
+        assert geometry.shape == (GOAL_GEOMETRY_DIM,) and not geometry[UNION_GEOMETRY_DIM + 2 * BOX_GEOMETRY_DIM:].any()
     # Without a projection nothing is segmented, so the goal is not located.
     plain = ArmObservationBuilder(VoxelGrid(DEFAULT_ARM_BOUNDS, 16)).build(obs)
-    assert not plain["left"].goal.any()
+    assert plain["left"].goal.shape == (GOAL_GEOMETRY_DIM,) and not plain["left"].goal.any()
+
+
+def test_object_boxes_give_each_goal_its_own_box_in_order() -> None:
+    frame = ArmFrame((0.0, 0.0, 0.0))
+    rng = np.random.default_rng(0)
+    big = rng.uniform([0.4, -0.2, 0.0], [0.7, 0.2, 0.3], size=(3000, 3))  # an oven
+    small = rng.uniform([0.45, 0.05, 0.05], [0.55, 0.1, 0.07], size=(200, 3))  # a tray beside its middle
+    boxes = object_boxes([small, big, np.zeros((0, 3)), small], frame, BOUNDS)  # unseen third, fourth beyond
+    assert boxes.shape == (OBJECT_SLOTS * BOX_GEOMETRY_DIM,)
+    np.testing.assert_allclose(boxes[:BOX_GEOMETRY_DIM], goal_geometry(small, frame, BOUNDS)[:BOX_GEOMETRY_DIM])
+    np.testing.assert_allclose(boxes[BOX_GEOMETRY_DIM:2 * BOX_GEOMETRY_DIM],
+                               goal_geometry(big, frame, BOUNDS)[:BOX_GEOMETRY_DIM])
+    assert not boxes[2 * BOX_GEOMETRY_DIM:].any()
+    # the union's box is the oven's: it cannot say where the tray is, the tray's own box does
+    union = goal_geometry(np.r_[big, small], frame, BOUNDS)
+    assert abs(union[1] - 0.075) > 0.05 and abs(boxes[1] - 0.075) < 0.005
 
 
 def curved_chain(rng: np.random.Generator, points_per_cm: int = 4) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

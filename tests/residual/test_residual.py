@@ -138,13 +138,13 @@ def test_the_prior_proposal_features_take_their_own_columns_and_a_wrong_width_is
 
 
 def test_a_residual_trained_on_the_goal_box_reads_the_box_of_a_wider_goal_row() -> None:
-    from bimanualshift.perception.goal_geometry import BOX_GEOMETRY_DIM, GOAL_GEOMETRY_DIM
+    from bimanualshift.perception.goal_geometry import BOX_GEOMETRY_DIM, GOAL_GEOMETRY_DIM, UNION_GEOMETRY_DIM
     from bimanualshift.residual.manager import manager_input_rows
 
     g = torch.Generator().manual_seed(0)
     parts = [torch.rand(2, w, generator=g) for w in (5, 9, 8, 8, 8)]
-    goal = torch.rand(2, GOAL_GEOMETRY_DIM, generator=g)  # what today's projection gives: box + extremities
-    for width in (BOX_GEOMETRY_DIM, GOAL_GEOMETRY_DIM):
+    goal = torch.rand(2, GOAL_GEOMETRY_DIM, generator=g)  # what today's projection gives: box, extremities, objects
+    for width in (BOX_GEOMETRY_DIM, UNION_GEOMETRY_DIM, GOAL_GEOMETRY_DIM):
         cfg = ResidualConfig(feature_dim=5, text_dim=8, goal_dim=width)
         rows = manager_input_rows(cfg, *parts, torch.tensor([0, 1]), torch.tensor([0, 3]), goal=goal)
         torch.testing.assert_close(rows[:, cfg.layout()["goal"]], goal[:, :width])

@@ -93,3 +93,21 @@ def test_goal_extremities_move_with_the_scene() -> None:
         head = transform_points(goal[:1, start:start + 3] + goal[:1, start + 3:start + 6], GRID, yaw[:1], shift[:1])[0]
         torch.testing.assert_close(moved[0, start + 3:start + 6], head - moved[0, start:start + 3])
     assert torch.equal(moved[1], torch.zeros(22))
+
+
+def test_each_goal_objects_box_moves_with_the_scene() -> None:
+    from bimanualshift.training.augment import transform_goal_geometry
+
+    box = [0.55, 0.0, 0.02, 0.5, -0.1, 0.0, 0.6, 0.1, 0.05, 1.0]
+    ends = [0.5, -0.1, 0.01, 1.0, 0.0, 0.0, 0.6, 0.1, 0.01, 0.0, -1.0, 0.0]
+    tray = [0.52, 0.05, 0.03, 0.5, 0.03, 0.02, 0.54, 0.07, 0.04, 1.0]
+    goal = torch.tensor([box + ends + tray + box + [0.0] * 10])  # third object unseen
+    yaw, shift = torch.tensor([0.4]), torch.tensor([[0.02, -0.03, 0.0]])
+    moved = transform_goal_geometry(goal, GRID, yaw, shift)
+    union = transform_goal_geometry(goal[:, :22], GRID, yaw, shift)
+    torch.testing.assert_close(moved[:, :22], union)  # the union part moves as it did before the object boxes
+    for start, own in ((22, tray), (32, box)):  # each object's box moves as a union box of its own would
+        torch.testing.assert_close(moved[:, start:start + 10],
+                                   transform_goal_geometry(torch.tensor([own]), GRID, yaw, shift))
+    assert not moved[0, 42:].any()
+    assert not torch.equal(moved[0, 22:25], goal[0, 22:25])

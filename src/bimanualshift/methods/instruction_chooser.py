@@ -16,14 +16,17 @@ from typing import Any
 import numpy as np
 import torch
 
+from bimanualshift.perception.goal_geometry import UNION_GEOMETRY_DIM
+
 OWN_PHRASING = ""  # the arm's prior reads the episode's own instruction (the paper)
 
 
 def chooser_features(goal: np.ndarray, proprio: np.ndarray, other_proprio: np.ndarray) -> np.ndarray:
     """(N, F) what the chooser reads per arm: the goal's geometry in the arm's frame, the arm's proprio and the
-    other arm's (arm frame; a keyframe fraction after the first 8 proprio entries is dropped)."""
+    other arm's (arm frame; a keyframe fraction after the first 8 proprio entries is dropped). Of the goal it reads
+    the union's box and extremities, the width it was fitted on before the object boxes existed."""
     goal, proprio, other = (np.atleast_2d(np.asarray(a, np.float64)) for a in (goal, proprio, other_proprio))
-    return np.concatenate([goal, proprio[:, :8], other[:, :8]], axis=1)
+    return np.concatenate([goal[:, :UNION_GEOMETRY_DIM], proprio[:, :8], other[:, :8]], axis=1)
 
 
 @dataclass

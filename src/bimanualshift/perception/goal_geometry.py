@@ -11,6 +11,10 @@ neighbour graph of its points (two sweeps of Dijkstra; exact for a chain, and a 
 box's corners are). Each end is given by its tip (the mean of the points within ``TIP_LENGTH_M`` of it along the
 graph) and the horizontal direction into the object from there; the end lying nearer this arm's side (smaller
 |y| in its frame) comes first, so each arm reads "its" end in the same slots.
+
+A task with several goal objects ("take the tray out of the oven": tray and oven) gets one union box, in which the
+larger object hides where the smaller one is. The *object boxes* give each goal noun's own box as well, in the
+order the goal nouns are given (up to ``OBJECT_SLOTS``): the tray's box beside the oven's.
 """
 
 from __future__ import annotations
@@ -26,7 +30,12 @@ from bimanualshift.perception.projection import CameraPoints
 
 BOX_GEOMETRY_DIM = 3 + 3 + 3 + 1  # centroid, 5th and 95th percentile corners, found flag
 EXTREMITY_DIM = 2 * (3 + 3)  # per end: tip, unit horizontal direction into the object; this arm's end first
-GOAL_GEOMETRY_DIM = BOX_GEOMETRY_DIM + EXTREMITY_DIM  # a residual reads the first 10 or all of them
+UNION_GEOMETRY_DIM = BOX_GEOMETRY_DIM + EXTREMITY_DIM  # all goal objects as one: box, extremities
+OBJECT_SLOTS = 3  # goal nouns given a box of their own (a further noun counts in the union only)
+OBJECT_GEOMETRY_DIM = OBJECT_SLOTS * BOX_GEOMETRY_DIM
+# An arm's goal vector: the union's box, its extremities, each goal object's box; a residual reads its first 10,
+# 22 or all of them.
+GOAL_GEOMETRY_DIM = UNION_GEOMETRY_DIM + OBJECT_GEOMETRY_DIM
 MIN_GOAL_POINTS = 10  # fewer back-projected goal points than this count as "goal not seen"
 GRAPH_NEIGHBOURS = 8  # each goal point links to this many nearest others (a camera's pixels are ~mm apart)
 GRAPH_POINTS = 1500  # above this many goal points, a fixed subsample builds the graph (Dijkstra's cost)
@@ -44,22 +53,40 @@ def goal_world_points(obs: KeyframeObservation, goal_mask: np.ndarray) -> np.nda
     return np.concatenate(parts) if parts else np.zeros((0, 3), np.float32)
 
 
-def goal_geometry(points_world: np.ndarray, frame: ArmFrame, bounds: tuple[float, ...]) -> np.ndarray:
-    """(GOAL_GEOMETRY_DIM,) the goal's centroid, robust extent and two extremities in ``frame``, counting only
-    points inside the arm's workspace ``bounds`` (x0, y0, z0, x1, y1, z1); all zeros when the goal is not seen."""
-    out = np.zeros(GOAL_GEOMETRY_DIM, np.float32)
+def _in_workspace(points_world: np.ndarray, frame: ArmFrame, bounds: tuple[float, ...]) -> np.ndarray:
+    """The points in ``frame`` that lie inside the arm's workspace ``bounds`` (x0, y0, z0, x1, y1, z1)."""
     if len(points_world) == 0:
-        return out
+        return np.zeros((0, 3))
     points = frame.points_to_arm(np.asarray(points_world, np.float64))
     low, high = np.asarray(bounds[:3]), np.asarray(bounds[3:])
-    points = points[np.all((points >= low) & (points <= high), axis=1)]
+    return points[np.all((points >= low) & (points <= high), axis=1)]
+
+
+def _box(points: np.ndarray) -> np.ndarray:
+    """(BOX_GEOMETRY_DIM,) centroid, 5th / 95th percentile corners and the seen flag of arm-frame ``points``."""
+    return np.r_[points.mean(0), np.percentile(points, 5, axis=0), np.percentile(points, 95, axis=0), 1.0]
+
+
+def goal_geometry(points_world: np.ndarray, frame: ArmFrame, bounds: tuple[float, ...]) -> np.ndarray:
+    """(UNION_GEOMETRY_DIM,) the goal's centroid, robust extent and two extremities in ``frame``, counting only
+    points inside the arm's workspace ``bounds`` (x0, y0, z0, x1, y1, z1); all zeros when the goal is not seen."""
+    out = np.zeros(UNION_GEOMETRY_DIM, np.float32)
+    points = _in_workspace(points_world, frame, bounds)
     if len(points) < MIN_GOAL_POINTS:
         return out
-    out[0:3] = points.mean(0)
-    out[3:6] = np.percentile(points, 5, axis=0)
-    out[6:9] = np.percentile(points, 95, axis=0)
-    out[9] = 1.0
+    out[:BOX_GEOMETRY_DIM] = _box(points)
     out[BOX_GEOMETRY_DIM:] = extremities(points)
+    return out
+
+
+def object_boxes(points_per_object: list[np.ndarray], frame: ArmFrame, bounds: tuple[float, ...]) -> np.ndarray:
+    """(OBJECT_GEOMETRY_DIM,) each goal object's box in ``frame`` (world points per goal noun, in the nouns'
+    order), as ``goal_geometry``'s box; an object not seen, and a slot beyond the nouns given, stay zeros."""
+    out = np.zeros(OBJECT_GEOMETRY_DIM, np.float32)
+    for slot, points_world in enumerate(points_per_object[:OBJECT_SLOTS]):
+        points = _in_workspace(points_world, frame, bounds)
+        if len(points) >= MIN_GOAL_POINTS:
+            out[slot * BOX_GEOMETRY_DIM:(slot + 1) * BOX_GEOMETRY_DIM] = _box(points)
     return out
 
 

@@ -11,7 +11,7 @@ from bimanualshift.geometry.cameras import depth_to_world_points
 from bimanualshift.geometry.frames import ArmFrame
 from bimanualshift.geometry.pixel_voxels import pixel_voxel_index, voxel_occupancy, voxelize_pixels
 from bimanualshift.geometry.voxels import VoxelGrid
-from bimanualshift.perception.goal_geometry import GOAL_GEOMETRY_DIM, goal_geometry, goal_world_points
+from bimanualshift.perception.goal_geometry import GOAL_GEOMETRY_DIM, goal_geometry, goal_world_points, object_boxes
 from bimanualshift.perception.projection import ArmProjection
 
 # Arm-frame workspace: 0.2-0.9 m ahead of the base, +-0.45 m to the side, from just below the table top
@@ -79,9 +79,10 @@ class ArmObservationBuilder:
             raise ValueError("an ArmObservationBuilder without voxels must keep points (points > 0)")
 
     def build(self, obs: KeyframeObservation) -> dict[str, ArmObservation]:
-        masks, goal_mask = self.projection.project(obs) if self.projection else (None, None)
+        masks, goal_mask, object_masks = self.projection.project_objects(obs) if self.projection else (None, None, {})
         world = world_point_cloud(obs) if self.points else None
         goal_points = goal_world_points(obs, goal_mask) if goal_mask is not None else np.zeros((0, 3), np.float32)
+        object_points = [goal_world_points(obs, mask) for mask in object_masks.values()]
         out = {}
         n = len(obs.scene.arm_names)
         for i, (arm, frame) in enumerate(arm_frames(obs).items()):
@@ -94,6 +95,7 @@ class ArmObservationBuilder:
                 keep &= masks[arm]
             other = proprio_in_arm_frame(obs.proprio[1 - i], frame) if n == 2 else np.zeros(8, np.float32)
             cloud = arm_point_cloud(world, keep, frame, self.points) if world is not None else None
-            out[arm] = ArmObservation(voxels, proprio_in_arm_frame(obs.proprio[i], frame), other,
-                                      goal_geometry(goal_points, frame, self.grid.bounds), cloud)
+            goal = np.r_[goal_geometry(goal_points, frame, self.grid.bounds),
+                         object_boxes(object_points, frame, self.grid.bounds)]
+            out[arm] = ArmObservation(voxels, proprio_in_arm_frame(obs.proprio[i], frame), other, goal, cloud)
         return out

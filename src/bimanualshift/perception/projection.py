@@ -105,12 +105,19 @@ class ArmProjection:
         return self.project(obs)[0]
 
     def project(self, obs: KeyframeObservation) -> tuple[dict[str, np.ndarray], np.ndarray]:
-        """Per arm, the (C, H, W) mask of the pixels that arm's observation keeps, and the goal object's own
+        """Per arm, the (C, H, W) mask of the pixels that arm's observation keeps, and the goal objects' own
         (C, H, W) mask (for its location, see ``goal_geometry``)."""
+        kept, goal, _ = self.project_objects(obs)
+        return kept, goal
+
+    def project_objects(self, obs: KeyframeObservation
+                        ) -> tuple[dict[str, np.ndarray], np.ndarray, dict[str, np.ndarray]]:
+        """``project``'s masks, and each goal noun's own (C, H, W) mask, in the order of the scene's goal nouns."""
         scene = obs.scene
         arms = scene.arm_names
         out = {arm: np.zeros(obs.depth.shape, dtype=bool) for arm in arms}
         goal = np.zeros(obs.depth.shape, dtype=bool)
+        objects = {noun: np.zeros(obs.depth.shape, dtype=bool) for noun in scene.goal_nouns}
         prompts = [ARM_CLASS, *scene.goal_nouns, SUPPORT_CLASS]
         colours = [scene.instance_colours.get(name, []) for name in scene.instance_names] \
             if scene.instance_colours else None
@@ -129,15 +136,16 @@ class ArmProjection:
                     arm_masks.append(det.mask)
                 else:
                     shared |= det.mask
-                    if det.label in scene.goal_nouns:
+                    if det.label in objects:
                         goal[c] |= det.mask
+                        objects[det.label][c] |= det.mask
             if not any(d.label in scene.goal_nouns for d in detections):
                 self.diagnostics.no_goal_found += 1
             if not arm_masks:
                 self.diagnostics.no_arm_found += 1
             for arm, mask in self.assign_arms(arm_masks, obs, c, camera, has_depth[c]).items():
                 np.logical_or(mask, shared, out=out[arm][c])
-        return out, goal
+        return out, goal, objects
 
     def _anchors(self, obs: KeyframeObservation, c: int) -> dict[str, np.ndarray | None]:
         """Image-plane base anchors of camera c, cached: they change only when the camera or a base moves."""

@@ -16,7 +16,7 @@ import torch
 import torch.nn.functional as F
 
 from bimanualshift.geometry.voxels import VoxelGrid
-from bimanualshift.perception.goal_geometry import BOX_GEOMETRY_DIM, EXTREMITY_DIM
+from bimanualshift.perception.goal_geometry import BOX_GEOMETRY_DIM, EXTREMITY_DIM, UNION_GEOMETRY_DIM
 
 
 def shift_voxels(voxels: torch.Tensor, shift: tuple[int, int, int]) -> torch.Tensor:
@@ -132,24 +132,37 @@ def transform_poses(poses: torch.Tensor, grid: VoxelGrid, yaw: torch.Tensor, tra
     return out
 
 
-def transform_goal_geometry(goal: torch.Tensor, grid: VoxelGrid, yaw: torch.Tensor, translation: torch.Tensor
-                            ) -> torch.Tensor:
-    """(B, 10 or 22) goal geometry (``perception.goal_geometry``: centroid, 5th / 95th percentile corners, seen
-    flag, then each extremity's tip and direction) of the moved scene: the centroid and the tips move exactly, the
-    directions turn with the yaw; the corners become the axis-aligned bounds of the moved box (exact for a pure
-    translation, a little wider under yaw). Unseen goals stay all zeros. The extremities keep their order (which
-    end is this arm's does not change under a few centimetres' shift)."""
-    out = goal.clone()
-    seen = goal[:, 9] > 0
-    out[:, 0:3] = transform_points(goal[:, 0:3], grid, yaw, translation)
-    low, high = goal[:, 3:6], goal[:, 6:9]
+def _transform_box(box: torch.Tensor, grid: VoxelGrid, yaw: torch.Tensor, translation: torch.Tensor) -> torch.Tensor:
+    """(B, 10) boxes (centroid, 5th / 95th percentile corners, seen flag) of the moved scene: the centroid moves
+    exactly, the corners become the axis-aligned bounds of the moved box (exact for a pure translation, a little
+    wider under yaw); unseen boxes stay all zeros."""
+    out = box.clone()
+    out[:, 0:3] = transform_points(box[:, 0:3], grid, yaw, translation)
+    low, high = box[:, 3:6], box[:, 6:9]
     pick = torch.tensor([[(i >> a) & 1 for a in range(3)] for i in range(8)], dtype=torch.bool)  # (8, 3)
     corners = torch.where(pick[None], high[:, None], low[:, None])  # (B, 8, 3)
     moved = transform_points(corners, grid, yaw, translation)
     out[:, 3:6], out[:, 6:9] = moved.min(1).values, moved.max(1).values
+    return torch.where(box[:, 9:10] > 0, out, box)
+
+
+def transform_goal_geometry(goal: torch.Tensor, grid: VoxelGrid, yaw: torch.Tensor, translation: torch.Tensor
+                            ) -> torch.Tensor:
+    """(B, 10, 22 or 52) goal geometry (``perception.goal_geometry``: the union's box, then each extremity's tip and
+    direction, then each goal object's box) of the moved scene. Boxes move as ``_transform_box``; the tips move
+    exactly and the directions turn with the yaw. The extremities keep their order (which end is this arm's does
+    not change under a few centimetres' shift). Unseen goals stay all zeros."""
+    out = goal.clone()
+    seen = goal[:, 9] > 0
+    out[:, :BOX_GEOMETRY_DIM] = _transform_box(goal[:, :BOX_GEOMETRY_DIM], grid, yaw, translation)
     if goal.shape[1] > BOX_GEOMETRY_DIM:
         turn = yaw_matrix(yaw).to(goal.dtype)
         for start in (BOX_GEOMETRY_DIM, BOX_GEOMETRY_DIM + EXTREMITY_DIM // 2):  # each end: tip (a point), direction
-            out[:, start:start + 3] = transform_points(goal[:, start:start + 3], grid, yaw, translation)
-            out[:, start + 3:start + 6] = torch.einsum("bij,bj->bi", turn, goal[:, start + 3:start + 6])
-    return torch.where(seen[:, None], out, goal)
+            end = torch.where(seen[:, None], torch.cat([
+                transform_points(goal[:, start:start + 3], grid, yaw, translation),
+                torch.einsum("bij,bj->bi", turn, goal[:, start + 3:start + 6])], 1), goal[:, start:start + 6])
+            out[:, start:start + 6] = end
+    for start in range(UNION_GEOMETRY_DIM, goal.shape[1], BOX_GEOMETRY_DIM):  # each goal object's own box
+        out[:, start:start + BOX_GEOMETRY_DIM] = _transform_box(goal[:, start:start + BOX_GEOMETRY_DIM], grid, yaw,
+                                                                translation)
+    return out

@@ -104,6 +104,9 @@ class ResidualModelConfig:
     # The goal geometry also gives the goal's two extremities (tip and direction of each end, this arm's end
     # first: perception/goal_geometry.py); off: its box alone (10 numbers).
     goal_extremities: bool = True
+    # Each goal noun's own box too (up to three, in the nouns' order: the tray's beside the oven's), where the
+    # union's box lets the larger object hide the smaller (perception/goal_geometry.py).
+    goal_objects: bool = False
     phase_slots: int = 25  # keyframe slots per arm of the (arm, keyframe) one-hot Manager input (0: none)
     normalise_inputs: bool = True  # standardise the Manager's inputs with the training inputs' statistics
     # The Manager's trunk reads the frozen prior's pooled features too; off: they let it memorise the demos.
@@ -140,12 +143,13 @@ class ResidualModelConfig:
         """The network's config: the one place these switches become the residual's widths and flags
         (``ResidualConfig``'s own defaults are what a checkpoint written before a field existed meant)."""
         from bimanualshift.memory.reference import REFERENCE_DIM
-        from bimanualshift.perception.goal_geometry import BOX_GEOMETRY_DIM, GOAL_GEOMETRY_DIM
+        from bimanualshift.perception.goal_geometry import BOX_GEOMETRY_DIM, GOAL_GEOMETRY_DIM, UNION_GEOMETRY_DIM
         from bimanualshift.residual.manager import ResidualConfig
 
         return ResidualConfig(feature_dim=feature_dim, text_dim=text_dim, structured=self.structured,
                               reference_dim=REFERENCE_DIM if self.retrieval else 0,
-                              goal_dim=(GOAL_GEOMETRY_DIM if self.goal_extremities else BOX_GEOMETRY_DIM)
+                              goal_dim=(GOAL_GEOMETRY_DIM if self.goal_objects
+                                        else UNION_GEOMETRY_DIM if self.goal_extremities else BOX_GEOMETRY_DIM)
                               if self.goal_geometry else 0,
                               phase_dim=self.phase_slots * len(ARM_ORDER), normalise_inputs=self.normalise_inputs,
                               read_prior_features=self.prior_features, geometric_skip=self.geometric_skip,
