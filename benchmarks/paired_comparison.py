@@ -46,27 +46,31 @@ def main() -> None:
             sys.exit(f"error: {wanted} does not exist: pass a folder written by `bimanualshift bench` or `study`")
     a, b = args.methods
     # a task's key is "task" for one perturbation, "task (perturbation)" for all of them
-    success: dict[tuple[str, str, int], bool] = {}
+    success: dict[tuple[int, str, int], bool] = {}  # (0 for A / 1 for B, task, seed): A and B may share a name
     perturbations = set()
-    records = [(row, a) for row in read_records(path)]  # a line cut short by a study still writing is skipped
-    records += [(row, b) for row in read_records(other)] if other != path else [(row, b) for row, _ in records]
-    for row, wanted in records:
+    if a == b and other == path:
+        sys.exit(f"error: --methods names {a} twice: compare two methods, or one with its run in --against")
+    records = [(row, 0) for row in read_records(path)]  # a line cut short by a study still writing is skipped
+    records += [(row, 1) for row in read_records(other)] if other != path else [(row, 1) for row, _ in records]
+    for row, side in records:
         perturbation = row.get("perturbation", "none")
         perturbations.add(perturbation)
-        if row["method"] == wanted and args.perturbation in ("all", perturbation):
+        if row["method"] == (a, b)[side] and args.perturbation in ("all", perturbation):
             task = row["task"] if args.perturbation != "all" else f"{row['task']} ({perturbation})"
-            success[(row["method"], task, int(row["seed"]))] = bool(row["success"])
+            success[(side, task, int(row["seed"]))] = bool(row["success"])
     if not success and args.perturbation not in perturbations:
         sys.exit(f"error: no episode of perturbation {args.perturbation!r} in {path}; it holds "
                  f"{', '.join(sorted(perturbations))} (or pass --perturbation all)")
-    tasks = sorted({task for method, task, _ in success if method == a})
+    if a == b:  # one method's two runs: B is named by its folder in the result
+        b = f"{b}@{Path(args.against).name}"
+    tasks = sorted({task for side, task, _ in success if side == 0})
     rows, seeds, flags_a, flags_b = [], {}, [], []
     for task in tasks:
-        common = sorted(seed for method, t, seed in success if method == a and t == task and (b, task, seed) in success)
+        common = sorted(seed for side, t, seed in success if side == 0 and t == task and (1, task, seed) in success)
         if not common:
             continue
         seeds[task] = common
-        task_a, task_b = [success[(a, task, s)] for s in common], [success[(b, task, s)] for s in common]
+        task_a, task_b = [success[(0, task, s)] for s in common], [success[(1, task, s)] for s in common]
         flags_a += task_a
         flags_b += task_b
         rows.append({"task": task, **_row(a, b, task_a, task_b)})

@@ -50,7 +50,8 @@ def test_an_unknown_perturbation_names_the_ones_recorded(tmp_path: Path) -> None
 
 def test_method_b_from_another_folder(tmp_path: Path) -> None:
     _write_episodes(tmp_path / "f")
-    rows = [{"task": "t", "method": "b", "perturbation": "none", "seed": seed, "success": True} for seed in (0, 1, 2, 9)]
+    rows = [{"task": "t", "method": "b", "perturbation": "none", "seed": seed, "success": True}
+            for seed in (0, 1, 2, 9)]
     (tmp_path / "g").mkdir()
     (tmp_path / "g" / "episodes.jsonl").write_text("".join(json.dumps(r) + "\n" for r in rows))
     done = _run(str(tmp_path / "f"), "--methods", "a", "b", "--against", str(tmp_path / "g"),
@@ -63,3 +64,18 @@ def test_method_b_from_another_folder(tmp_path: Path) -> None:
     assert str(tmp_path / "g") in result["notes"]
     missing = _run(str(tmp_path / "f"), "--methods", "a", "b", "--against", str(tmp_path / "nowhere"))
     assert missing.returncode != 0 and "nowhere" in missing.stderr and "Traceback" not in missing.stderr
+
+
+def test_one_methods_two_runs(tmp_path: Path) -> None:
+    _write_episodes(tmp_path / "f")
+    rows = [{"task": "t", "method": "a", "perturbation": "none", "seed": seed, "success": seed == 0}
+            for seed in range(3)]
+    (tmp_path / "rerun").mkdir()
+    (tmp_path / "rerun" / "episodes.jsonl").write_text("".join(json.dumps(r) + "\n" for r in rows))
+    done = _run(str(tmp_path / "f"), "--methods", "a", "a", "--against", str(tmp_path / "rerun"),
+                "--out", str(tmp_path / "twice.json"))
+    assert done.returncode == 0, done.stderr
+    row = json.loads((tmp_path / "twice.json").read_text())["rows"][0]
+    assert (row["pairs"], row["a_wins"], row["a@rerun_wins"]) == (3, 2, 0)  # f's a solved all three, rerun's one
+    same = _run(str(tmp_path / "f"), "--methods", "a", "a")
+    assert same.returncode != 0 and "twice" in same.stderr
