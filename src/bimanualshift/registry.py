@@ -195,6 +195,11 @@ register_method(_residual_method(
     "(the tray's beside the oven's; the dirt's beside the dustpan's and the brush's) next to the union's box and "
     "extremities (compare with no_refinement on validation seeds)", refine=False, retrieval=True, goal_objects=True))
 register_method(_residual_method(
+    "start_goal", "variant: the full method before refinement whose Manager also reads, at every keyframe, the goal "
+    "geometry of the episode's first keyframe (its union and each goal noun's box), where things lay before the "
+    "arms moved or hid them (compare with no_refinement on validation seeds)", refine=False, retrieval=True,
+    goal_at_start=True))
+register_method(_residual_method(
     "keyframe_gate", "variant: goal_extremities with the output gate's factors chosen per keyframe (compare with "
     "no_refinement and goal_extremities on validation seeds)", refine=False, retrieval=True, goal_extremities=True,
     gate_per_keyframe=True, **EARLIER_TRAINING))

@@ -77,3 +77,32 @@ def test_augmented_copies_move_scene_targets_poses_and_goal_together(demo_root: 
             checked += 1
     assert checked > n // 2
     assert data.inputs[:, layout["proposal"]].abs().sum() > 0  # the proposal features came along
+
+
+def test_the_first_keyframes_goal_moves_with_each_copy(demo_root: Path, prior_dir: Path) -> None:
+    from bimanualshift.perception.goal_geometry import GOAL_GEOMETRY_DIM
+
+    prior = UnimanualPrior.from_pretrained(prior_dir)
+    step = FrozenPriorStep(prior, default_text_encoder(), locate_goal=True, proposal_features=True)
+    config = ResidualModelConfig(goal_at_start=True).residual_config(prior.feature_dim, 384, prior.proposal_feature_dim)
+    assert config.start_goal_dim == GOAL_GEOMETRY_DIM
+    paths = list_episodes(demo_root / "bimanual", "push_two_buttons")[:2]
+    data = residual_data(config, paths, step, default_text_encoder(), None, Se3Augmentation(0.04, 15.0),
+                         augment_copies=1, seed=0)
+    n = len(data) // 2
+    layout = config.layout()
+    goal, start = data.inputs[:, layout["goal"]], data.inputs[:, layout["start_goal"]]
+    keyframe = data.inputs[:, layout["phase"]].argmax(-1) % (config.phase_dim // config.num_arms)
+    arm = data.inputs[:, layout["arm"]].argmax(-1)
+    # unmoved rows: the start goal is the goal of the same arm's first keyframe, and constant over the episode
+    firsts = [i for i in range(n) if keyframe[i] == 0]
+    assert len(firsts) == 2 * len(paths)
+    for i in range(n):
+        owner = max(f for f in firsts if f <= i and arm[f] == arm[i]) if keyframe[i] else i
+        torch.testing.assert_close(start[i, :config.goal_dim], goal[owner])
+    # each moved copy moves its start goal with the scene: distances to the target stay
+    target = data.inputs[:, layout["base_action"]][:, :3] + data.translation
+    seen = start[:n, 9] > 0
+    moved, kept = (target[n:] - start[n:, :3]).norm(dim=-1), (target[:n] - start[:n, :3]).norm(dim=-1)
+    torch.testing.assert_close(moved[seen], kept[seen], atol=1e-4, rtol=0)
+    assert not torch.allclose(start[n:][seen], start[:n][seen])

@@ -317,3 +317,31 @@ def test_residual_training_follows_the_learning_rate_schedule(demo_root: Path, t
     for name in ("prior", "prior_plus_residual"):
         assert len(per[f"{name}_median_m"]) == len(per["keyframes"])
         assert min(per[f"{name}_median_m"]) <= report[f"{name}_median_m"] <= max(per[f"{name}_median_m"])
+
+
+def test_first_keyframes_goal_is_read_at_every_keyframe_and_reset(demo_root: Path, tiny_prior: Path,
+                                                                  tmp_path: Path) -> None:
+    from bimanualshift.data.episode import list_episodes, read_episode
+    from bimanualshift.data.frames import KeyframeObservation
+    from bimanualshift.perception.goal_geometry import GOAL_GEOMETRY_DIM
+
+    best = train_residual(config_from_flat(TrainConfig, prior=str(tiny_prior), data=str(demo_root / "bimanual"),
+                                           validation_data=str(demo_root / "bimanual"), out=str(tmp_path), steps=2,
+                                           checkpoint_every=2, demos=2, goal_at_start=True))
+    policy = load_bimanualshift(best, default_text_encoder())
+    columns = policy.residual.config.layout()["start_goal"]
+    assert policy.residual.config.start_goal_dim == GOAL_GEOMETRY_DIM
+    episodes = [read_episode(p) for p in list_episodes(demo_root / "bimanual", "push_two_buttons")[:2]]
+    first = policy.decide(KeyframeObservation.from_episode(episodes[0], 0))
+    for decision in first:  # at keyframe 0 the first goal is the current one
+        torch.testing.assert_close(decision.inputs[columns], torch.as_tensor(decision.step.goal))
+        assert decision.inputs[columns].any()
+    last = episodes[0].num_keyframes - 1
+    later = policy.decide(KeyframeObservation.from_episode(episodes[0], last))
+    for decision, start in zip(later, first, strict=True):  # later keyframes keep reading keyframe 0's
+        torch.testing.assert_close(decision.inputs[columns], start.inputs[columns])
+    policy.reset()  # a new episode reads its own first keyframe
+    other = policy.decide(KeyframeObservation.from_episode(episodes[1], 0))
+    for decision in other:
+        torch.testing.assert_close(decision.inputs[columns], torch.as_tensor(decision.step.goal))
+    assert not torch.equal(other[0].inputs[columns], first[0].inputs[columns])

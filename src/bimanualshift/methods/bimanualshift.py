@@ -50,11 +50,12 @@ class BimanualShift:
         self._log: list[dict] = []
         self.alignment: ProgressAlignment | None = None  # each arm's step in the retrieved execution
         self._steps: dict[str, int] = {}
+        self._start_goal: dict[str, np.ndarray] = {}  # per arm, the goal geometry of the episode's first keyframe
 
     def reset(self) -> None:
         self.retrieval, self._retrieved, self._key = None, False, None
         self._last_action, self._nearest_similarity, self._log = {}, None, []
-        self.alignment, self._steps = None, {}
+        self.alignment, self._steps, self._start_goal = None, {}, {}
 
     def _retrieve(self, steps: dict, text: torch.Tensor, arms: list[str]) -> None:
         """Once per episode, on its first observation: the most similar stored execution, if confident."""
@@ -95,10 +96,11 @@ class BimanualShift:
                 reference = torch.as_tensor(reference_vector(self.retrieval, step, i,
                                                              s.prior.base_action()[0].numpy()))[None]
             goal = torch.as_tensor(s.goal)[None] if self.residual.config.goal_dim else None
+            start_goal = torch.as_tensor(self._start_goal.setdefault(arm, s.goal))[None]  # set at the first keyframe
             inputs = manager_input_rows(
                 self.residual.config, s.prior.features, torch.as_tensor(s.proprio)[None],
                 torch.as_tensor(s.other_proprio)[None], text, s.prior.base_action(), torch.tensor([i]),
-                torch.tensor([obs.keyframe_index]), reference, goal, s.prior.proposal_features,
+                torch.tensor([obs.keyframe_index]), reference, goal, s.prior.proposal_features, start_goal,
             )
             out = self.residual(inputs)
             action, held = self.final_action(arm, s, out)
@@ -203,7 +205,7 @@ def load_bimanualshift(directory: str | Path, text_encoder: TextEncoder | None =
     _, residual = load_residual_checkpoint(directory, residual_encoder.dim)
     memory = MemoryBank.load(directory / MEMORY_FILE) if rcfg.reference_dim > 0 else None
     prior_step = FrozenPriorStep(prior, text_encoder, use_projection=cfg.get("use_projection", True),
-                             locate_goal=rcfg.goal_dim > 0,
+                             locate_goal=rcfg.goal_dim > 0 or rcfg.start_goal_dim > 0,
                              segmenter=segmenter or cfg.get("segmenter", "simulator"),
                              segmenter_options=cfg.get("segmenter_options"),
                              proposal_features=rcfg.proposal_dim > 0,

@@ -60,6 +60,9 @@ class ResidualConfig:
     # "w_positive" as the environment gives it (checkpoints from before the choice), or "gripper_down": on the side
     # of the gripper-down pose, where w is near 0 and the w >= 0 sign flips at random between similar poses.
     quaternion_sign: str = "w_positive"
+    # Width of the goal geometry as the episode's first keyframe saw it, read beside the current one: where things
+    # lay before the arms moved or hid them (dirt under the brush); 0 = not read (checkpoints from before it).
+    start_goal_dim: int = 0
 
     def __post_init__(self) -> None:
         if self.quaternion_sign not in QUATERNION_SIGNS:
@@ -85,7 +88,7 @@ class ResidualConfig:
         widths = {"features": self.feature_dim, "proprio": self.proprio_dim, "other_proprio": self.other_proprio_dim,
                   "text": self.text_dim, "base_action": self.base_action_dim, "arm": self.num_arms,
                   "reference": self.reference_dim, "goal": self.goal_dim, "phase": self.phase_dim,
-                  "proposal": self.proposal_dim}
+                  "proposal": self.proposal_dim, "start_goal": self.start_goal_dim}
         out, start = {}, 0
         for name, width in widths.items():
             out[name] = slice(start, start + width)
@@ -105,7 +108,7 @@ class Manager(nn.Module):
         super().__init__()
         c = config
         layout = c.layout()
-        self.in_dim = layout["proposal"].stop
+        self.in_dim = layout["start_goal"].stop
         columns = torch.arange(self.in_dim)
         if not c.read_prior_features:
             columns = columns[layout["features"].stop:]
@@ -116,7 +119,7 @@ class Manager(nn.Module):
         self.compensation = nn.Linear(c.hidden, skill_dim)
         self.skip: nn.Linear | None = None
         if c.geometric_skip:
-            parts = ("goal", "proprio", "base_action", "phase")
+            parts = ("goal", "proprio", "base_action", "phase", "start_goal")
             skip = torch.cat([torch.arange(self.in_dim)[layout[k]] for k in parts])
             self.register_buffer("skip_columns", skip, persistent=False)
             self.skip = nn.Linear(len(skip), skill_dim)
@@ -213,13 +216,14 @@ def action_lattice(config: ResidualConfig) -> torch.Tensor:
 def manager_inputs(features: torch.Tensor, proprio: torch.Tensor, other_proprio: torch.Tensor,
                    text: torch.Tensor, base_action: torch.Tensor, arm_index: torch.Tensor, num_arms: int,
                    reference: torch.Tensor | None = None, goal: torch.Tensor | None = None,
-                   phase: torch.Tensor | None = None, proposal: torch.Tensor | None = None) -> torch.Tensor:
+                   phase: torch.Tensor | None = None, proposal: torch.Tensor | None = None,
+                   start_goal: torch.Tensor | None = None) -> torch.Tensor:
     """The Manager's input row: the arm's visual features, both arms' proprioception, the instruction, the
     prior's own action, the arm's one-hot, (with retrieval) the retrieved temporal reference and (when the
-    residual reads them) the goal's location from the projection, the (arm, keyframe) one-hot ``phase`` and the
-    prior's features at and around its proposal."""
+    residual reads them) the goal's location from the projection, the (arm, keyframe) one-hot ``phase``, the
+    prior's features at and around its proposal and the goal's location at the episode's first keyframe."""
     parts = [features, proprio, other_proprio, text, base_action, nn.functional.one_hot(arm_index, num_arms).float()]
-    for part in (reference, goal, phase, proposal):
+    for part in (reference, goal, phase, proposal, start_goal):
         if part is not None:
             parts.append(part)
     return torch.cat(parts, dim=-1)
@@ -228,15 +232,19 @@ def manager_inputs(features: torch.Tensor, proprio: torch.Tensor, other_proprio:
 def manager_input_rows(config: ResidualConfig, features: torch.Tensor, proprio: torch.Tensor,
                        other_proprio: torch.Tensor, text: torch.Tensor, base_action: torch.Tensor,
                        arm_index: torch.Tensor, keyframe: torch.Tensor, reference: torch.Tensor | None = None,
-                       goal: torch.Tensor | None = None, proposal: torch.Tensor | None = None) -> torch.Tensor:
+                       goal: torch.Tensor | None = None, proposal: torch.Tensor | None = None,
+                       start_goal: torch.Tensor | None = None) -> torch.Tensor:
     """(N, width) Manager input rows exactly as ``config`` reads them (``config.layout()``): training, refinement
-    and inference all build their rows here. The retrieved reference, the goal geometry and the prior's proposal
-    features must be given when the config reads them; the (arm, keyframe) phase one-hot is derived from
-    ``keyframe``."""
+    and inference all build their rows here. The retrieved reference, the goal geometry, the prior's proposal
+    features and the episode's first goal geometry must be given when the config reads them; the (arm, keyframe)
+    phase one-hot is derived from ``keyframe``."""
     if config.goal_dim and goal is not None and goal.shape[-1] > config.goal_dim:
         goal = goal[..., :config.goal_dim]  # a residual trained before the extremities reads the box alone
+    if config.start_goal_dim and start_goal is not None and start_goal.shape[-1] > config.start_goal_dim:
+        start_goal = start_goal[..., :config.start_goal_dim]
     for name, width, value in (("reference", config.reference_dim, reference), ("goal", config.goal_dim, goal),
-                               ("proposal", config.proposal_dim, proposal)):
+                               ("proposal", config.proposal_dim, proposal),
+                               ("first keyframe's goal", config.start_goal_dim, start_goal)):
         if width and value is None:
             raise ValueError(f"this residual reads a {width}-wide {name}; pass it to build the Manager's input")
         if width and value.shape[-1] != width:
@@ -249,7 +257,8 @@ def manager_input_rows(config: ResidualConfig, features: torch.Tensor, proprio: 
     phase = phase_one_hot(keyframe, arm_index, config.phase_dim, config.num_arms) if config.phase_dim else None
     return manager_inputs(features, proprio, other_proprio, text, base_action, arm_index, config.num_arms,
                           reference if config.reference_dim else None, goal if config.goal_dim else None, phase,
-                          proposal if config.proposal_dim else None)
+                          proposal if config.proposal_dim else None,
+                          start_goal if config.start_goal_dim else None)
 
 
 def _quaternion_toward_gripper_down(rows: torch.Tensor) -> torch.Tensor:

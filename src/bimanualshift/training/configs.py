@@ -107,6 +107,9 @@ class ResidualModelConfig:
     # Each goal noun's own box too (up to three, in the nouns' order: the tray's beside the oven's), where the
     # union's box lets the larger object hide the smaller (perception/goal_geometry.py).
     goal_objects: bool = False
+    # The goal geometry at the episode's first keyframe too (its union and each goal noun's box), read at every
+    # keyframe: where the goal lay before the arms moved or hid it (the dirt a brush covers).
+    goal_at_start: bool = False
     phase_slots: int = 25  # keyframe slots per arm of the (arm, keyframe) one-hot Manager input (0: none)
     normalise_inputs: bool = True  # standardise the Manager's inputs with the training inputs' statistics
     # The Manager's trunk reads the frozen prior's pooled features too; off: they let it memorise the demos.
@@ -161,7 +164,8 @@ class ResidualModelConfig:
                               action_space=self.action_space, action_window=self.action_window,
                               action_cell_m=self.action_cell_m,
                               rotation_bins=rotation_bins if self.action_space else 0,
-                              quaternion_sign=self.quaternion_sign)
+                              quaternion_sign=self.quaternion_sign,
+                              start_goal_dim=GOAL_GEOMETRY_DIM if self.goal_at_start else 0)
 
 
 @dataclass

@@ -192,8 +192,11 @@ def residual_data(config: ResidualConfig, paths: list[Path], prior_step: FrozenP
                                              (grid, yaw, shift))
         goal = (transform_goal_geometry(torch.as_tensor(samples.goal), grid, yaw, shift) if config.goal_dim
                 else None)
+        # the episode's first keyframe's goal, seen through this row's motion (the whole scene moves as one)
+        start_goal = (transform_goal_geometry(torch.as_tensor(samples.goal[first_rows(samples)]), grid, yaw, shift)
+                      if config.start_goal_dim else None)
         inputs = manager_input_rows(config, features_t, proprio, other, text, base_t, arm_index,
-                                    torch.as_tensor(samples.keyframe), reference, goal, proposal_t)
+                                    torch.as_tensor(samples.keyframe), reference, goal, proposal_t, start_goal)
         translation = moved_pos - base_t[:, :3]
         rotation = torch.as_tensor(np.stack([rotation_difference(t, b) for t, b in zip(quat, base_t[:, 3:7].numpy())]),
                                    dtype=torch.float32)
@@ -204,6 +207,17 @@ def residual_data(config: ResidualConfig, paths: list[Path], prior_step: FrozenP
     merged = {f: (None if getattr(parts[0], f) is None else torch.cat([getattr(p, f) for p in parts]))
               for f in fields}
     return ResidualData(**merged, memory=memory)
+
+
+def first_rows(samples: ArmSamples) -> np.ndarray:
+    """(N,) per sample, the index of its episode's first keyframe's sample of the same arm."""
+    first = {(int(e), a): i for i, (e, a, k) in enumerate(zip(samples.episode, samples.arm, samples.keyframe))
+             if k == 0}
+    missing = {(int(e), a) for e, a in zip(samples.episode, samples.arm)} - set(first)
+    if missing:
+        raise ValueError(f"episode {sorted(missing)[0][0]} has no keyframe 0 for arm {sorted(missing)[0][1]!r}: the "
+                         "first keyframe's goal cannot be read (are the demos cut?)")
+    return np.array([first[(int(e), a)] for e, a in zip(samples.episode, samples.arm)])
 
 
 ACTION_SPACE_FIELDS = ("prior_translation", "prior_rotation", "target_cell", "target_bins")
@@ -469,7 +483,8 @@ def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Pat
     text_encoder = make_text_encoder(cfg.model.text_encoder)  # the prior keeps the encoder it was pretrained with
     prior = prior if prior is not None else UnimanualPrior.from_pretrained(cfg.prior)
     prior_step = FrozenPriorStep(prior, default_text_encoder(), use_projection=cfg.model.use_projection,
-                             locate_goal=cfg.model.goal_geometry, segmenter=cfg.model.segmenter,
+                             locate_goal=cfg.model.goal_geometry or cfg.model.goal_at_start,
+                             segmenter=cfg.model.segmenter,
                              segmenter_options=segmenter_options(cfg.model.grounding_dino, cfg.model.sam),
                              proposal_features=cfg.model.proposal_features)
     paths = list_episodes(cfg.dataset.data, cfg.dataset.task)[: cfg.dataset.demos]
