@@ -13,12 +13,10 @@ from __future__ import annotations
 
 import argparse
 import json
-import shlex
-import sys
 import time
 from pathlib import Path
 
-from bimanualshift.evaluation.report import write_result
+from bimanualshift.evaluation.report import invoked_command, write_result
 from bimanualshift.training.configs import PretrainConfig
 from bimanualshift.training.pretrain import pretrain
 from bimanualshift.utils.config_files import config_from_flat
@@ -58,7 +56,7 @@ def main() -> None:
                      "final_within_3cm": round(-last["validation"], 4),
                      "training_time_s": config["training_time_s"]})
         print(rows[-1], flush=True)
-    command = "python benchmarks/data_volume.py " + " ".join(shlex.quote(a) for a in sys.argv[1:])
+    command = invoked_command()
     notes = ("teacher-forced keyframe error on the validation demos at the step validation picked (and at the "
              "last step); every volume trains the same steps with the same schedule and batch")
     val_seeds = sorted({int(p.stem.rsplit("_", 1)[1]) for p in Path(args.validation_data).glob("*/episode_*.h5")})

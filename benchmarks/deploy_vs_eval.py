@@ -13,8 +13,6 @@ ways, and whether every executed keyframe action is bit-identical.
 from __future__ import annotations
 
 import argparse
-import shlex
-import sys
 import time
 
 import numpy as np
@@ -24,7 +22,7 @@ from bimanualshift.deploy.client import PolicyClient
 from bimanualshift.deploy.loop import deploy_sim
 from bimanualshift.deploy.process import ServerProcess
 from bimanualshift.deploy.served_policy import load_served_policy
-from bimanualshift.evaluation.report import write_result
+from bimanualshift.evaluation.report import invoked_command, write_result
 from bimanualshift.rollout.loop import episode_budget, rollout
 from bimanualshift.sim.env import ManipulationEnv
 from bimanualshift.sim.task import resolve_task_names
@@ -83,7 +81,7 @@ def main() -> None:
         server.stop()
     identical = all(r["same_success"] and r["same_actions"] for r in rows)
     print(f"identical success and actions on every seed: {identical}")
-    write_result(args.out, "python " + " ".join(shlex.quote(a) for a in sys.argv), {args.split: seeds}, started,
+    write_result(args.out, invoked_command(), {args.split: seeds}, started,
                  rows, notes=f"server: bimanualshift serve {' '.join(serve_args)} (own process); robot: the MuJoCo "
                  "robot, every observation and action through the msgpack codec", identical=identical,
                  episodes_per_task=args.episodes)

@@ -10,7 +10,6 @@ and from the same projection and segmentation training uses. Nothing is trained 
 from __future__ import annotations
 
 import argparse
-import shlex
 import sys
 import time
 
@@ -19,7 +18,7 @@ from tqdm import tqdm
 
 from bimanualshift.data.episode import list_episodes, read_episode
 from bimanualshift.data.frames import KeyframeObservation
-from bimanualshift.evaluation.report import write_result
+from bimanualshift.evaluation.report import invoked_command, write_result
 from bimanualshift.geometry.frames import ArmFrame
 from bimanualshift.geometry.voxels import VoxelGrid
 from bimanualshift.perception.goal_geometry import BOX_GEOMETRY_DIM
@@ -67,7 +66,7 @@ def main() -> None:
         rows.append({"task": task, "arms": len(tip), **summary("centroid", centroid), **summary("own_tip", tip)})
         print(f"{task}: expert's first keyframe from the box centroid {rows[-1]['centroid_median_cm']} cm, from "
               f"the arm's own tip {rows[-1]['own_tip_median_cm']} cm (median of {len(tip)} arms)")
-    command = " ".join(["python benchmarks/goal_extremities.py", *(shlex.quote(a) for a in sys.argv[1:])])
+    command = invoked_command()
     write_result(args.out, command, seeds, started, rows,
                  notes="keyframe 0 of every demo, both arms; horizontal distances in cm in the arm's frame "
                        "(within_2cm: the share of arms)")

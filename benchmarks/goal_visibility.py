@@ -12,7 +12,6 @@ summed over every camera, as the simulator's segmenter (the benchmark's) gives t
 from __future__ import annotations
 
 import argparse
-import shlex
 import sys
 import time
 
@@ -21,7 +20,7 @@ from tqdm import tqdm
 
 from bimanualshift.data.episode import list_episodes, read_episode
 from bimanualshift.data.frames import KeyframeObservation
-from bimanualshift.evaluation.report import write_result
+from bimanualshift.evaluation.report import invoked_command, write_result
 from bimanualshift.perception.segmenters.base import CameraView
 from bimanualshift.perception.segmenters.simulator import SimulatorSegmenter
 from bimanualshift.utils.pipes import quiet_on_closed_pipe
@@ -71,7 +70,7 @@ def main() -> None:
         for noun in dict.fromkeys(r["goal_noun"] for r in rows if r["task"] == task):
             line = " ".join(str(r["median_pixels"]) for r in rows if r["task"] == task and r["goal_noun"] == noun)
             print(f"  {noun:>16}: {line}")
-    command = " ".join(["python benchmarks/goal_visibility.py", *(shlex.quote(x) for x in sys.argv[1:])])
+    command = invoked_command()
     write_result(args.out, command, seeds, started, rows,
                  notes="per task, goal noun and keyframe: median / min / max over the demos of the noun's pixels "
                        "summed over every camera (simulator segmenter), at keyframe k's observation")

@@ -17,12 +17,11 @@ same seeds); nothing is rolled out. ``--perturbation`` picks the episodes of one
 from __future__ import annotations
 
 import argparse
-import shlex
 import sys
 import time
 from pathlib import Path
 
-from bimanualshift.evaluation.report import write_result
+from bimanualshift.evaluation.report import invoked_command, write_result
 from bimanualshift.evaluation.stats import paired_sign_test
 from bimanualshift.utils.jsonl import read_records
 from bimanualshift.utils.pipes import quiet_on_closed_pipe
@@ -83,7 +82,7 @@ def main() -> None:
         print(f"{row['task']}: {row['pairs']} pairs, {a} wins {row[f'{a}_wins']}, {b} wins {row[f'{b}_wins']}, "
               f"p = {row['p_value']}")
     out = args.out or str(Path(args.folder) / f"paired_{a}_vs_{b}.json")
-    command = " ".join(["python benchmarks/paired_comparison.py", *(shlex.quote(x) for x in sys.argv[1:])])
+    command = invoked_command()
     write_result(out, command, seeds, started, rows,
                  notes=f"episodes of {path}{f' ({b}: {other})' if other != path else ''} (perturbation "
                        f"{args.perturbation}) where both methods ran the seed; "

@@ -11,12 +11,10 @@ from __future__ import annotations
 
 import argparse
 import json
-import shlex
-import sys
 import time
 from pathlib import Path
 
-from bimanualshift.evaluation.report import write_result
+from bimanualshift.evaluation.report import invoked_command, write_result
 from bimanualshift.utils.pipes import quiet_on_closed_pipe
 
 
@@ -58,7 +56,7 @@ def main() -> None:
     args = parser.parse_args()
     started = time.time()
     rows = [r for run in args.runs for r in progress_rows(Path(run))]
-    command = "python benchmarks/pretrain_progress.py " + " ".join(shlex.quote(a) for a in sys.argv[1:])
+    command = invoked_command()
     notes = ("validation demos of data/suite2_val (validation seeds); training minutes include the run a prior was "
              "initialised from; runs that shared the 2 cores report the wall time they took that way")
     val = sorted({int(p.stem.rsplit("_", 1)[1]) for p in Path("data/suite2_val").glob("*/episode_*.h5")})

@@ -16,7 +16,6 @@ Nothing is trained.
 from __future__ import annotations
 
 import argparse
-import shlex
 import sys
 import time
 from pathlib import Path
@@ -26,7 +25,7 @@ import torch
 
 from bimanualshift.data.episode import list_episodes
 from bimanualshift.encoders.text import default_text_encoder
-from bimanualshift.evaluation.report import write_result
+from bimanualshift.evaluation.report import invoked_command, write_result
 from bimanualshift.methods.prior_step import FrozenPriorStep
 from bimanualshift.perception.arm_samples import ArmSamples, build_arm_samples
 from bimanualshift.priors import UnimanualPrior
@@ -114,7 +113,7 @@ def main() -> None:
                   f"{best['median_cm']} cm")
     for folder in seeds:
         seeds[folder].sort()
-    command = "python benchmarks/prior_instructions.py " + " ".join(shlex.quote(a) for a in sys.argv[1:])
+    command = invoked_command()
     notes = ("teacher-forced translation error of the frozen prior's first proposed action, through the "
              "arm-conditioned projection, both arms given the same instruction (take tray's role schemes give each "
              "role its own, the role read from the expert, so they bound any per-arm choice)")

@@ -11,7 +11,6 @@ observations, show which part of the prediction limits a task.
 from __future__ import annotations
 
 import argparse
-import shlex
 import sys
 import time
 
@@ -20,7 +19,7 @@ import torch
 from tqdm import tqdm
 
 from bimanualshift.data.episode import list_episodes
-from bimanualshift.evaluation.report import write_result
+from bimanualshift.evaluation.report import invoked_command, write_result
 from bimanualshift.geometry.voxels import VoxelGrid
 from bimanualshift.perception.arm_samples import build_arm_samples
 from bimanualshift.perception.observation import ArmObservationBuilder
@@ -62,7 +61,7 @@ def main() -> None:
                          "within_3cm": round(float(np.mean(trans < 0.03)), 3),
                          "median_rotation_deg": round(float(np.median(rot)), 1),
                          "within_15deg": round(float(np.mean(rot < 15)), 3)})
-    command = "python benchmarks/prior_keyframe_errors.py " + " ".join(shlex.quote(a) for a in sys.argv[1:])
+    command = invoked_command()
     notes = (f"teacher-forced on the expert's observations of the validation demos in {args.data}; "
              "the voxel of the 32^3 grid is 2.2 x 2.8 x 1.6 cm")
     path = write_result(args.out, command, {"validation": sorted(seeds)}, started, rows, notes=notes)

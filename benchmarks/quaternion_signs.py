@@ -10,12 +10,11 @@ targets. ``--quaternion-sign gripper_down`` (docs/residual.md) gives them all on
 from __future__ import annotations
 
 import argparse
-import shlex
 import sys
 import time
 
 from bimanualshift.data.episode import list_episodes, read_episode
-from bimanualshift.evaluation.report import write_result
+from bimanualshift.evaluation.report import invoked_command, write_result
 from bimanualshift.geometry.frames import ArmFrame
 from bimanualshift.perception.observation import proprio_in_arm_frame
 from bimanualshift.utils.pipes import quiet_on_closed_pipe
@@ -46,7 +45,7 @@ def main() -> None:
         rows.append({"task": task, "demos": len(paths), "poses": poses, "negated": negated,
                      "negated_share": round(negated / poses, 3)})
         print(f"{task}: {negated} of {poses} poses with x < 0")
-    command = " ".join(["python benchmarks/quaternion_signs.py", *(shlex.quote(a) for a in sys.argv[1:])])
+    command = invoked_command()
     write_result(args.out, command, seeds, started, rows,
                  notes="keyframe proprioception of both arms in the arm's frame, w >= 0; negated: x < 0")
     print(f"wrote {args.out}")

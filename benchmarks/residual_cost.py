@@ -9,8 +9,6 @@ Run it on an idle machine. The CPU-hour budget of the studies (docs/benchmark.md
 from __future__ import annotations
 
 import argparse
-import shlex
-import sys
 import tempfile
 import time
 
@@ -20,7 +18,7 @@ from bimanualshift.data.collect import collect
 from bimanualshift.data.episode import list_episodes
 from bimanualshift.data.seeds import split_seeds
 from bimanualshift.encoders.text import default_text_encoder, make_text_encoder
-from bimanualshift.evaluation.report import write_result
+from bimanualshift.evaluation.report import invoked_command, write_result
 from bimanualshift.methods.prior_step import FrozenPriorStep
 from bimanualshift.priors import UnimanualPrior
 from bimanualshift.residual.manager import ResidualPolicy
@@ -75,7 +73,7 @@ def main() -> None:
              "ms_per_step": round(step_ms, 2)}]
     for row in rows:
         print(row)
-    write_result(args.out, "python " + " ".join(shlex.quote(a) for a in sys.argv), {"train": split_seeds(
+    write_result(args.out, invoked_command(), {"train": split_seeds(
         "train", args.demos)}, started, rows, notes="2 torch threads, idle machine; the pool includes voxelising "
         "the demos' keyframes (the projection) and the prior's forward pass on each augmented copy")
     print(f"wrote {args.out}")

@@ -12,12 +12,10 @@ from __future__ import annotations
 
 import argparse
 import json
-import shlex
-import sys
 import time
 from pathlib import Path
 
-from bimanualshift.evaluation.report import write_result
+from bimanualshift.evaluation.report import invoked_command, write_result
 from bimanualshift.training.configs import TrainConfig
 from bimanualshift.training.residual_trainer import train_residual
 from bimanualshift.utils.config_files import config_from_flat
@@ -67,7 +65,7 @@ def main() -> None:
                      "gate": [gate.get("translation_scale"), gate.get("rotation_scale")],
                      "train_samples": summary["train_samples"], "wall_time_s": summary["wall_time_s"]})
         print(rows[-1], flush=True)
-    command = "python benchmarks/residual_variants.py " + " ".join(shlex.quote(a) for a in sys.argv[1:])
+    command = invoked_command()
     val = sorted({int(p.stem.rsplit("_", 1)[1]) for p in Path(args.validation_data).glob("*/episode_*.h5")})
     notes = ("validation demos only (never test seeds); errors are of prior + residual before the output gate, "
              "the rotation error clipped at 0.35 rad as the gate scores it; one task: a first reading, not a verdict")

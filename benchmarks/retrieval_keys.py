@@ -13,14 +13,12 @@ Two measurements, both from a finished benchmark run (no rollout):
 from __future__ import annotations
 
 import argparse
-import shlex
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
-from bimanualshift.evaluation.report import write_result
+from bimanualshift.evaluation.report import invoked_command, write_result
 from bimanualshift.memory.bank import MemoryBank
 from bimanualshift.methods.bimanualshift import MEMORY_FILE
 from bimanualshift.utils.jsonl import read_records
@@ -75,7 +73,7 @@ def main() -> None:
     across = [r for r in rows if r["measure"] == "keys" and r["task"] != r["other"]]
     summary = {"within_task_median_min": min(r["median"] for r in within),
                "across_tasks_max": max(r["max"] for r in across)}
-    command = "python benchmarks/retrieval_keys.py " + " ".join(shlex.quote(a) for a in sys.argv[1:])
+    command = invoked_command()
     notes = (f"keys of the training demos' banks ({args.runs}/<task>/{args.method}/best/{MEMORY_FILE}); "
              f"episodes from {args.results}/keyframes.jsonl")
     path = write_result(args.out, command, {}, started, rows, notes=notes, summary=summary)

@@ -14,7 +14,6 @@ whether that cue is the missing one. Nothing is trained beyond the probes; nothi
 from __future__ import annotations
 
 import argparse
-import shlex
 import sys
 import time
 
@@ -23,7 +22,7 @@ from tqdm import tqdm
 
 from bimanualshift.data.frames import KeyframeObservation, scene_of_env
 from bimanualshift.data.seeds import split_seeds
-from bimanualshift.evaluation.report import write_result
+from bimanualshift.evaluation.report import invoked_command, write_result
 from bimanualshift.geometry.voxels import VoxelGrid
 from bimanualshift.methods.instruction_chooser import InstructionChooser
 from bimanualshift.perception.goal_geometry import goal_world_points
@@ -112,7 +111,7 @@ def main() -> None:
     majority = round(float(max(y.mean(), 1 - y.mean())), 3)
     rows.append({"inputs": "majority role", "features": 0, "arms": len(y), "role_accuracy": majority,
                  f"role_accuracy_{args.demos}_scenes": majority})
-    command = " ".join(["python benchmarks/role_cues.py", *(shlex.quote(a) for a in sys.argv[1:])])
+    command = invoked_command()
     write_result(args.out, command, {"train": seeds}, started, rows,
                  notes=f"{args.task}, first keyframe of each training scene, both arms; role: 1 for the arm the "
                        f"task gives the tray; accuracy of a logistic regression per arm held out over "

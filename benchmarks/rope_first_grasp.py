@@ -11,7 +11,6 @@ distance to the expert's grasp, to the nearest rope segment, and which end it ch
 from __future__ import annotations
 
 import argparse
-import shlex
 import sys
 import time
 from pathlib import Path
@@ -19,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from bimanualshift.evaluation.bench import KEYFRAME_LOG
-from bimanualshift.evaluation.report import write_result
+from bimanualshift.evaluation.report import invoked_command, write_result
 from bimanualshift.sim.env import ManipulationEnv
 from bimanualshift.sim.props.rope import rope_bodies
 from bimanualshift.utils.jsonl import read_records
@@ -75,7 +74,7 @@ def main() -> None:
               f"same end {100 * row['same_end']:.0f} %"
               + ("" if row["residual_cm_max"] is None else f", residual {row['residual_cm_median']} cm median, "
                  f"{row['residual_cm_max']} cm max"))
-    command = " ".join(["python benchmarks/rope_first_grasp.py", *(shlex.quote(a) for a in sys.argv[1:])])
+    command = invoked_command()
     write_result(args.out, command, {"test": seeds}, started, rows,
                  notes="keyframe 0 of every logged test episode, both arms; horizontal distances in cm; rope "
                        "segments are their body origins at the start of the episode; 'along' is the gap between the "

@@ -13,8 +13,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import shlex
-import sys
 import tempfile
 import time
 from collections import Counter
@@ -26,7 +24,7 @@ from bimanualshift.deploy.client import PolicyClient, ServerUnavailable
 from bimanualshift.deploy.malformed import CLASSES, corpus
 from bimanualshift.deploy.process import ServerProcess
 from bimanualshift.deploy.sim_robot import first_observation_message
-from bimanualshift.evaluation.report import write_result
+from bimanualshift.evaluation.report import invoked_command, write_result
 from bimanualshift.utils.pipes import quiet_on_closed_pipe
 
 
@@ -99,7 +97,7 @@ def main() -> None:
           f"server alive at the end: {alive}")
     for row in rows:
         print(f"  {row['class']:16s} {row['cases']:5d} cases, {row['failures']} failures")
-    write_result(args.out, "python " + " ".join(shlex.quote(a) for a in sys.argv), {"corpus": [args.seed]}, started,
+    write_result(args.out, invoked_command(), {"corpus": [args.seed]}, started,
                  rows, notes="one server process (bimanualshift serve, the frozen prior on a real push_two_buttons "
                  "observation); each case then a valid request on the same connection",
                  cases=total, crashes=crashes, server_alive_at_end=alive, failures=failures[:50],

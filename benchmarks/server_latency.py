@@ -13,8 +13,6 @@ Run it on an otherwise idle machine.
 from __future__ import annotations
 
 import argparse
-import shlex
-import sys
 import threading
 import time
 
@@ -23,7 +21,7 @@ import numpy as np
 from bimanualshift.deploy.client import PolicyClient
 from bimanualshift.deploy.process import ServerProcess
 from bimanualshift.deploy.sim_robot import first_observation_message
-from bimanualshift.evaluation.report import write_result
+from bimanualshift.evaluation.report import invoked_command, write_result
 from bimanualshift.utils.pipes import quiet_on_closed_pipe
 
 
@@ -86,7 +84,7 @@ def main() -> None:
         print(f"{row['clients']} client(s): p50 {row['p50_ms']} ms, p99 {row['p99_ms']} ms, "
               f"{row['throughput_rps']} req/s, {row['errors']} errors")
     print(f"8-client throughput / single-client: {ratio:.2f} (target >= 0.9)")
-    write_result(args.out, "python " + " ".join(shlex.quote(a) for a in sys.argv), {"observation": [0]}, started,
+    write_result(args.out, invoked_command(), {"observation": [0]}, started,
                  [single, eight], notes="loopback; server process with 2 torch threads serving the frozen prior "
                  "(no_residual: projection + prior per arm); 1.1 MB observation frames; the policy runs one request "
                  "at a time, decoding and encoding overlap", throughput_ratio_8_to_1=round(ratio, 3))

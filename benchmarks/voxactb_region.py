@@ -11,8 +11,6 @@ target outside the region lands on its edge: the policy cannot reach it.
 from __future__ import annotations
 
 import argparse
-import shlex
-import sys
 import time
 from collections.abc import Callable
 
@@ -21,7 +19,7 @@ import numpy as np
 from bimanualshift.data.collect import record_expert_episode
 from bimanualshift.data.frames import KeyframeObservation
 from bimanualshift.data.seeds import split_seeds
-from bimanualshift.evaluation.report import write_result
+from bimanualshift.evaluation.report import invoked_command, write_result
 from bimanualshift.methods.baselines.voxactb import ROI_BOUNDS, ROI_LIFT
 from bimanualshift.perception.goal_geometry import goal_world_points
 from bimanualshift.perception.projection import ArmProjection
@@ -63,7 +61,7 @@ def main() -> None:
             rows.append({"task": task, "rule": rule, "targets": len(flags),
                          "inside": round(100 * float(np.mean(flags)), 1)})
             print(rows[-1])
-    command = "python benchmarks/voxactb_region.py " + " ".join(shlex.quote(a) for a in sys.argv[1:])
+    command = invoked_command()
     path = write_result(args.out, command, {"validation": seeds}, started, rows,
                         notes=f"region {ROI_BOUNDS} (m, in the frame at its centre), centre {ROI_LIFT} m above the "
                               "rule's point; simulator segmenter; the shipped rule is 'mean'")

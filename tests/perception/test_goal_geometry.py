@@ -47,8 +47,14 @@ def test_points_outside_the_workspace_or_too_few_count_as_unseen() -> None:
 def test_projection_locates_the_goal_object_of_a_real_scene(bimanual_episode_path: Path) -> None:
     ep = read_episode(bimanual_episode_path)
     obs = KeyframeObservation.from_episode(ep, 0)
-    builder = ArmObservationBuilder(VoxelGrid(DEFAULT_ARM_BOUNDS, 16), ArmProjection(SimulatorSegmenter()))
+    builder = ArmObservationBuilder(VoxelGrid(DEFAULT_ARM_BOUNDS, 16), ArmProjection(SimulatorSegmenter()),
+                                    goal_objects=True)
     per_arm = builder.build(obs)
+    # without goal_objects the union's geometry is the same and the per-object boxes are not computed (zeros)
+    union_only = ArmObservationBuilder(VoxelGrid(DEFAULT_ARM_BOUNDS, 16), ArmProjection(SimulatorSegmenter()))
+    for arm, observed in union_only.build(obs).items():
+        np.testing.assert_array_equal(observed.goal[:UNION_GEOMETRY_DIM], per_arm[arm].goal[:UNION_GEOMETRY_DIM])
+        assert observed.goal.shape == (GOAL_GEOMETRY_DIM,) and not observed.goal[UNION_GEOMETRY_DIM:].any()
     # Ground truth from the simulator's instance ids: every pixel of a named button (the instruction's colours;
     # the third button is a distractor), back-projected.
     named = {prompt.split()[0] for prompt in ep.goal_nouns}

@@ -83,7 +83,7 @@ def test_the_first_keyframes_goal_moves_with_each_copy(demo_root: Path, prior_di
     from bimanualshift.perception.goal_geometry import GOAL_GEOMETRY_DIM
 
     prior = UnimanualPrior.from_pretrained(prior_dir)
-    step = FrozenPriorStep(prior, default_text_encoder(), locate_goal=True, proposal_features=True)
+    step = FrozenPriorStep(prior, default_text_encoder(), locate_goal=True, goal_objects=True, proposal_features=True)
     config = ResidualModelConfig(goal_at_start=True).residual_config(prior.feature_dim, 384, prior.proposal_feature_dim)
     assert config.start_goal_dim == GOAL_GEOMETRY_DIM
     paths = list_episodes(demo_root / "bimanual", "push_two_buttons")[:2]

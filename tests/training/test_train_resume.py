@@ -323,7 +323,7 @@ def test_first_keyframes_goal_is_read_at_every_keyframe_and_reset(demo_root: Pat
                                                                   tmp_path: Path) -> None:
     from bimanualshift.data.episode import list_episodes, read_episode
     from bimanualshift.data.frames import KeyframeObservation
-    from bimanualshift.perception.goal_geometry import GOAL_GEOMETRY_DIM
+    from bimanualshift.perception.goal_geometry import GOAL_GEOMETRY_DIM, UNION_GEOMETRY_DIM
 
     best = train_residual(config_from_flat(TrainConfig, prior=str(tiny_prior), data=str(demo_root / "bimanual"),
                                            validation_data=str(demo_root / "bimanual"), out=str(tmp_path), steps=2,
@@ -336,6 +336,8 @@ def test_first_keyframes_goal_is_read_at_every_keyframe_and_reset(demo_root: Pat
     for decision in first:  # at keyframe 0 the first goal is the current one
         torch.testing.assert_close(decision.inputs[columns], torch.as_tensor(decision.step.goal))
         assert decision.inputs[columns].any()
+    # it reads each goal noun's own box, so the loaded step computes them (both buttons, seen by some arm)
+    assert any(decision.step.goal[UNION_GEOMETRY_DIM:].any() for decision in first)
     last = episodes[0].num_keyframes - 1
     later = policy.decide(KeyframeObservation.from_episode(episodes[0], last))
     for decision, start in zip(later, first, strict=True):  # later keyframes keep reading keyframe 0's

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import platform
+import shlex
 import subprocess
 import sys
 import time
@@ -58,6 +59,19 @@ def success_rows(records: list[EpisodeRecord], **extra: Any) -> list[dict[str, A
                                    details={"mean_keyframes": round(float(np.mean([r.keyframes for r in mine])), 2)}
                                    ).to_dict())
     return rows
+
+
+def invoked_command(argv: list[str] | None = None) -> str:
+    """The command line a script was run with (``sys.argv``), quoted so that a reader can paste it back, for a
+    result file's ``command``."""
+    argv = list(sys.argv if argv is None else argv)
+    script = Path(argv[0])
+    if script.is_absolute():  # a path under the working directory is written as the reader would type it
+        try:
+            script = script.relative_to(Path.cwd())
+        except ValueError:
+            pass
+    return shlex.join(["python", str(script), *argv[1:]])
 
 
 def write_result(path: str | Path, command: str, seeds: dict[str, list[int]], started: float,

@@ -16,6 +16,7 @@ from bimanualshift.memory.bank import MemoryBank, Retrieval
 from bimanualshift.memory.reference import ProgressAlignment, episode_key, reference_vector
 from bimanualshift.methods.instruction_chooser import InstructionChooser
 from bimanualshift.methods.prior_step import ArmStep, FrozenPriorStep, world_action
+from bimanualshift.perception.goal_geometry import UNION_GEOMETRY_DIM
 from bimanualshift.priors.base import UnimanualPrior
 from bimanualshift.residual.checkpoint import (
     load_residual_checkpoint,
@@ -206,6 +207,7 @@ def load_bimanualshift(directory: str | Path, text_encoder: TextEncoder | None =
     memory = MemoryBank.load(directory / MEMORY_FILE) if rcfg.reference_dim > 0 else None
     prior_step = FrozenPriorStep(prior, text_encoder, use_projection=cfg.get("use_projection", True),
                              locate_goal=rcfg.goal_dim > 0 or rcfg.start_goal_dim > 0,
+                             goal_objects=max(rcfg.goal_dim, rcfg.start_goal_dim) > UNION_GEOMETRY_DIM,
                              segmenter=segmenter or cfg.get("segmenter", "simulator"),
                              segmenter_options=cfg.get("segmenter_options"),
                              proposal_features=rcfg.proposal_dim > 0,

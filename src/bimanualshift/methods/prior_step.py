@@ -35,6 +35,7 @@ class FrozenPriorStep:
     def __init__(self, prior: UnimanualPrior, text_encoder: TextEncoder, use_projection: bool = True,
                  segmenter: str = "simulator",
                  segmenter_options: dict[str, str] | None = None, locate_goal: bool = False,
+                 goal_objects: bool = False,
                  proposal_features: bool = False, prior_instruction: str = "",
                  instruction_chooser: InstructionChooser | None = None) -> None:
         self.prior = prior.freeze()
@@ -54,7 +55,8 @@ class FrozenPriorStep:
         projection = ArmProjection(make_segmenter(segmenter, **(segmenter_options or {}))) if segmented else None
         self.builder = ArmObservationBuilder(VoxelGrid(tuple(cfg.bounds), cfg.voxel_size), projection,
                                              mask_voxels=use_projection, points=prior.cloud_points,
-                                             voxels=prior.observation == "voxels")
+                                             voxels=prior.observation == "voxels",
+                                             goal_objects=goal_objects and segmented)
 
     def text(self, instruction: str, features: np.ndarray | None = None) -> torch.Tensor:
         """The prior's instruction embedding (batch of one) for an episode given ``instruction``, for an arm that

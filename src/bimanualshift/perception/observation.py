@@ -11,7 +11,13 @@ from bimanualshift.geometry.cameras import depth_to_world_points
 from bimanualshift.geometry.frames import ArmFrame
 from bimanualshift.geometry.pixel_voxels import pixel_voxel_index, voxel_occupancy, voxelize_pixels
 from bimanualshift.geometry.voxels import VoxelGrid
-from bimanualshift.perception.goal_geometry import GOAL_GEOMETRY_DIM, goal_geometry, goal_world_points, object_boxes
+from bimanualshift.perception.goal_geometry import (
+    GOAL_GEOMETRY_DIM,
+    OBJECT_GEOMETRY_DIM,
+    goal_geometry,
+    goal_world_points,
+    object_boxes,
+)
 from bimanualshift.perception.projection import ArmProjection
 
 # Arm-frame workspace: 0.2-0.9 m ahead of the base, +-0.45 m to the side, from just below the table top
@@ -68,13 +74,16 @@ class ArmObservationBuilder:
     """
 
     def __init__(self, grid: VoxelGrid, projection: ArmProjection | None = None, mask_voxels: bool = True,
-                 points: int = 0, voxels: bool = True) -> None:
+                 points: int = 0, voxels: bool = True, goal_objects: bool = False) -> None:
         self.grid = grid
         self.projection = projection
         self.mask_voxels = mask_voxels  # False: segment only to locate the goal, the voxels stay global
         self.points = points  # > 0: also each arm's point cloud, at most this many points (a fixed subsample)
         # False: no voxel grid (a point-cloud prior's pretraining never reads one; 256 KB a sample at 32^3)
         self.voxels = voxels
+        # True: also each goal noun's own box (``object_boxes``), one back-projection per noun; only a residual
+        # that reads past the union's geometry needs them, for the rest those columns stay zero
+        self.goal_objects = goal_objects
         if not voxels and not points:
             raise ValueError("an ArmObservationBuilder without voxels must keep points (points > 0)")
 
@@ -82,7 +91,8 @@ class ArmObservationBuilder:
         masks, goal_mask, object_masks = self.projection.project_objects(obs) if self.projection else (None, None, {})
         world = world_point_cloud(obs) if self.points else None
         goal_points = goal_world_points(obs, goal_mask) if goal_mask is not None else np.zeros((0, 3), np.float32)
-        object_points = [goal_world_points(obs, mask) for mask in object_masks.values()]
+        object_points = ([goal_world_points(obs, mask) for mask in object_masks.values()] if self.goal_objects
+                         else None)
         out = {}
         n = len(obs.scene.arm_names)
         for i, (arm, frame) in enumerate(arm_frames(obs).items()):
@@ -95,7 +105,8 @@ class ArmObservationBuilder:
                 keep &= masks[arm]
             other = proprio_in_arm_frame(obs.proprio[1 - i], frame) if n == 2 else np.zeros(8, np.float32)
             cloud = arm_point_cloud(world, keep, frame, self.points) if world is not None else None
-            goal = np.r_[goal_geometry(goal_points, frame, self.grid.bounds),
-                         object_boxes(object_points, frame, self.grid.bounds)]
+            boxes = (object_boxes(object_points, frame, self.grid.bounds) if object_points is not None
+                     else np.zeros(OBJECT_GEOMETRY_DIM, np.float32))
+            goal = np.r_[goal_geometry(goal_points, frame, self.grid.bounds), boxes]
             out[arm] = ArmObservation(voxels, proprio_in_arm_frame(obs.proprio[i], frame), other, goal, cloud)
         return out

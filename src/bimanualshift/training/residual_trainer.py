@@ -484,6 +484,7 @@ def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Pat
     prior = prior if prior is not None else UnimanualPrior.from_pretrained(cfg.prior)
     prior_step = FrozenPriorStep(prior, default_text_encoder(), use_projection=cfg.model.use_projection,
                              locate_goal=cfg.model.goal_geometry or cfg.model.goal_at_start,
+                             goal_objects=cfg.model.goal_objects or cfg.model.goal_at_start,
                              segmenter=cfg.model.segmenter,
                              segmenter_options=segmenter_options(cfg.model.grounding_dino, cfg.model.sam),
                              proposal_features=cfg.model.proposal_features)
