@@ -7,8 +7,8 @@ keyframes. Camera matrices follow ``geometry.cameras`` (OpenCV optical frame, ca
 
 from __future__ import annotations
 
-import atexit
 import time
+import weakref
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 
@@ -79,6 +79,12 @@ class _PassClock:
             self.t = now
 
 
+def _free_gl(gl: mujoco.GLContext, context: mujoco.MjrContext) -> None:
+    gl.make_current()
+    context.free()
+    gl.free()
+
+
 class CameraRig:
     """Renders a fixed set of MuJoCo cameras with two passes per camera.
 
@@ -113,7 +119,10 @@ class CameraRig:
         self._context = mujoco.MjrContext(model, mujoco.mjtFontScale.mjFONTSCALE_150)
         mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN, self._context)
         self._context.readDepthMap = mujoco.mjtDepthMap.mjDEPTH_ZEROFAR
-        atexit.register(self.close)  # free the GL context before interpreter teardown breaks EGL calls
+        # Freed by close(), or when the rig is collected, and at the latest at exit, before interpreter teardown
+        # breaks EGL calls. A finaliser holds the contexts, not the rig: an atexit hook on ``self.close`` kept every
+        # rig (and its model) alive for the whole process, ~135 MB per environment created.
+        self._release = weakref.finalize(self, _free_gl, self._gl, self._context)
         self._scene = mujoco.MjvScene(model, maxgeom=10_000)
         for flag in (mujoco.mjtRndFlag.mjRND_SHADOW, mujoco.mjtRndFlag.mjRND_REFLECTION,
                      mujoco.mjtRndFlag.mjRND_SKYBOX):
@@ -205,8 +214,5 @@ class CameraRig:
         return self._colour_pass()
 
     def close(self) -> None:
-        if self._gl is not None:
-            self._gl.make_current()
-            self._context.free()
-            self._gl.free()
-            self._gl = None
+        self._release()  # runs once; later calls do nothing
+        self._gl = None
