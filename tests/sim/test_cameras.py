@@ -1,10 +1,15 @@
 from __future__ import annotations
 
 import gc
+import os
+import subprocess
+import sys
 import weakref
+from pathlib import Path
 
 import numpy as np
 
+import bimanualshift
 from bimanualshift.sim.env import ManipulationEnv
 
 
@@ -25,3 +30,23 @@ def test_an_environment_and_its_cameras_are_freed_once_dropped() -> None:
     del closed, unclosed
     gc.collect()
     assert all(rig() is None for rig in rigs)
+
+
+EXIT_SCRIPT = """
+import weakref
+weakref.finalize(type("Early", (), {})(), print)  # a library made a finaliser before any rig existed
+from bimanualshift.sim.env import ManipulationEnv
+kept = ManipulationEnv("lift_ball", image_size=32)
+kept.reset(seed=0)
+ManipulationEnv("lift_ball", image_size=32).close()
+print("done")
+"""
+
+
+def test_a_process_exits_cleanly_with_environments_still_open() -> None:
+    """The GL contexts of rigs alive at exit are freed before mujoco terminates the EGL display."""
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(Path(bimanualshift.__file__).parents[1]),
+                                                         os.environ.get("PYTHONPATH", "")])}
+    out = subprocess.run([sys.executable, "-c", EXIT_SCRIPT], capture_output=True, text=True, env=env, timeout=120)
+    assert out.returncode == 0 and out.stdout.strip().endswith("done"), out.stderr[-2000:]
+    assert "Error" not in out.stderr, out.stderr[-2000:]

@@ -7,6 +7,7 @@ keyframes. Camera matrices follow ``geometry.cameras`` (OpenCV optical frame, ca
 
 from __future__ import annotations
 
+import atexit
 import time
 import weakref
 import xml.etree.ElementTree as ET
@@ -119,10 +120,13 @@ class CameraRig:
         self._context = mujoco.MjrContext(model, mujoco.mjtFontScale.mjFONTSCALE_150)
         mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN, self._context)
         self._context.readDepthMap = mujoco.mjtDepthMap.mjDEPTH_ZEROFAR
-        # Freed by close(), or when the rig is collected, and at the latest at exit, before interpreter teardown
-        # breaks EGL calls. A finaliser holds the contexts, not the rig: an atexit hook on ``self.close`` kept every
-        # rig (and its model) alive for the whole process, ~135 MB per environment created.
+        # Freed by close(), or when the rig is collected, or at exit. The finaliser holds the contexts, not the rig:
+        # an exit hook on ``self.close`` kept every rig (and its model) alive for the whole process, ~135 MB per
+        # environment created. At exit it runs from a hook registered after the context was made, so before the one
+        # with which mujoco terminates the EGL display (exit hooks run last-registered first).
         self._release = weakref.finalize(self, _free_gl, self._gl, self._context)
+        self._release.atexit = False
+        atexit.register(self._release)
         self._scene = mujoco.MjvScene(model, maxgeom=10_000)
         for flag in (mujoco.mjtRndFlag.mjRND_SHADOW, mujoco.mjtRndFlag.mjRND_REFLECTION,
                      mujoco.mjtRndFlag.mjRND_SKYBOX):
@@ -215,4 +219,5 @@ class CameraRig:
 
     def close(self) -> None:
         self._release()  # runs once; later calls do nothing
+        atexit.unregister(self._release)
         self._gl = None
