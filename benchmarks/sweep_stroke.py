@@ -1,0 +1,91 @@
+"""Where the brush is set down at sweep's stroke start, against the expert, in failures and successes (writes
+results/sweep_stroke.json)
+
+    .venv/bin/python benchmarks/sweep_stroke.py results/table1/complex_tasks
+
+The expert sets the brush head down (keyframe 5) just beyond the farthest dirt from the pan's mouth and strokes
+towards the mouth (keyframe 6). Per method and outcome, from a bench folder's per-keyframe log (``keyframes.jsonl``):
+the brush arm's executed keyframe-5 position minus the expert's on the same seed, split along the stroke (positive:
+farther from the pan, behind the dirt; negative: short, onto the dirt) and across it. The brush arm is the one
+whose expert keyframes 4 and 6 lie farthest apart. Nothing is rolled out.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from collections import defaultdict
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from bimanualshift.evaluation.report import invoked_command, write_result
+from bimanualshift.utils.jsonl import read_records
+from bimanualshift.utils.pipes import quiet_on_closed_pipe
+
+TASK = "sweep_to_dustpan"
+ABOVE, DOWN, END = 4, 5, 6  # the expert's keyframes: above the stroke start, at it, at the stroke's end
+SHORT_M = 0.01  # "short": set down more than this nearer the pan than the expert
+
+
+def stroke_offsets(steps: list[dict[str, Any]]) -> tuple[float, float] | None:
+    """(along, across) metres of the brush arm's set-down from the expert's, or None when the episode did not
+    reach the expert's stroke."""
+    rows = {s["keyframe"]: s for s in steps}
+    if any(k not in rows or rows[k]["expert"] is None for k in (ABOVE, DOWN, END)):
+        return None
+    expert = {k: np.asarray(rows[k]["expert"])[:, :2] for k in (ABOVE, DOWN, END)}
+    arm = int(np.argmax(np.linalg.norm(expert[ABOVE] - expert[END], axis=1)))
+    along = expert[ABOVE][arm] - expert[END][arm]
+    along /= np.linalg.norm(along)
+    offset = np.asarray(rows[DOWN]["executed"])[arm, :2] - expert[DOWN][arm]
+    return float(offset @ along), float(offset @ np.array([-along[1], along[0]]))
+
+
+def summarise(folder: Path) -> list[dict[str, Any]]:
+    success = {(e["method"], e["seed"]): e["success"] for e in read_records(folder / "episodes.jsonl")
+               if e["task"] == TASK and e.get("perturbation", "none") == "none"}
+    offsets: dict[tuple[str, bool], list[tuple[float, float]]] = defaultdict(list)
+    for record in read_records(folder / "keyframes.jsonl"):
+        key = (record["method"], record["seed"])
+        if record["task"] != TASK or key not in success or record.get("perturbation", "none") != "none":
+            continue
+        found = stroke_offsets(record["steps"])
+        if found is not None:
+            offsets[(record["method"], success[key])].append(found)
+    rows = []
+    for (method, succeeded), values in sorted(offsets.items()):
+        a = np.asarray(values)
+        rows.append({"method": method, "outcome": "success" if succeeded else "failure", "episodes": len(a),
+                     "along_median_cm": round(100 * float(np.median(a[:, 0])), 1),
+                     "short_fraction": round(float(np.mean(a[:, 0] < -SHORT_M)), 2),
+                     "across_abs_median_cm": round(100 * float(np.median(np.abs(a[:, 1]))), 1)})
+    return rows
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("folder", help="a bench folder holding sweep_to_dustpan's episodes.jsonl and keyframes.jsonl")
+    parser.add_argument("--out", default="results/sweep_stroke.json")
+    args = parser.parse_args()
+    started = time.time()
+    folder = Path(args.folder)
+    if not (folder / "keyframes.jsonl").is_file():
+        raise SystemExit(f"{folder} has no keyframes.jsonl: give a bench folder (e.g. results/table1/complex_tasks)")
+    rows = summarise(folder)
+    if not rows:
+        raise SystemExit(f"{folder} holds no {TASK} episodes that reached the expert's stroke")
+    print(f"{'method':<22} {'outcome':<8} {'n':>3} {'along cm':>9} {'short':>6} {'|across| cm':>12}")
+    for r in rows:
+        print(f"{r['method']:<22} {r['outcome']:<8} {r['episodes']:>3} {r['along_median_cm']:>9} "
+              f"{r['short_fraction']:>6} {r['across_abs_median_cm']:>12}")
+    seeds = sorted({e["seed"] for e in read_records(folder / "episodes.jsonl") if e["task"] == TASK})
+    write_result(args.out, invoked_command(), {"test": seeds}, started, rows, folder=str(folder),
+                 notes="brush arm's keyframe-5 position minus the expert's: along the stroke (+ farther from the "
+                 f"pan) and across it; short = more than {100 * SHORT_M:.0f} cm nearer the pan; medians over episodes")
+
+
+if __name__ == "__main__":
+    with quiet_on_closed_pipe():
+        main()

@@ -1,0 +1,46 @@
+"""benchmarks/sweep_stroke.py measures the brush arm's set-down against the expert's along and across the stroke."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+spec = importlib.util.spec_from_file_location("sweep_stroke", ROOT / "benchmarks" / "sweep_stroke.py")
+sweep_stroke = importlib.util.module_from_spec(spec)
+spec.loader.exec_module(sweep_stroke)
+
+
+def _steps(brush_down: tuple[float, float]) -> list[dict]:
+    """The right arm brushes along -y (from y = 0.2 to y = 0.0); the left arm holds still."""
+    expert = {4: (0.5, 0.2), 5: (0.5, 0.2), 6: (0.5, 0.0)}
+    steps = []
+    for k in range(7):
+        ex = [[0.3, 0.3, 1.0, 1, 0, 0, 0, 0, 1], [*expert.get(k, (0.5, 0.3)), 1.0, 1, 0, 0, 0, 0, 1]]
+        done = [list(ex[0]), list(ex[1])]
+        if k == 5:
+            done[1][:2] = brush_down
+        steps.append({"keyframe": k, "executed": done, "expert": ex})
+    return steps
+
+
+def test_offsets_are_split_along_and_across_the_stroke() -> None:
+    along, across = sweep_stroke.stroke_offsets(_steps((0.52, 0.17)))  # 3 cm short (towards the pan), 2 cm aside
+    assert along == pytest.approx(-0.03) and abs(across) == pytest.approx(0.02)
+    assert sweep_stroke.stroke_offsets(_steps((0.5, 0.2))[:5]) is None  # never reached the stroke
+
+
+def test_summary_per_method_and_outcome(tmp_path: Path) -> None:
+    episodes = [{"task": "sweep_to_dustpan", "method": "m", "perturbation": "none", "seed": s, "success": s == 0}
+                for s in range(3)]
+    logs = [{"task": "sweep_to_dustpan", "method": "m", "perturbation": "none", "seed": s, "steps": _steps(down)}
+            for s, down in enumerate([(0.5, 0.21), (0.5, 0.17), (0.5, 0.15)])]
+    (tmp_path / "episodes.jsonl").write_text("".join(json.dumps(r) + "\n" for r in episodes))
+    (tmp_path / "keyframes.jsonl").write_text("".join(json.dumps(r) + "\n" for r in logs))
+    rows = {r["outcome"]: r for r in sweep_stroke.summarise(tmp_path)}
+    assert rows["success"]["episodes"] == 1 and rows["success"]["along_median_cm"] == pytest.approx(1.0)
+    assert rows["failure"]["episodes"] == 2 and rows["failure"]["short_fraction"] == 1.0
+    assert rows["failure"]["along_median_cm"] == pytest.approx(-4.0)
