@@ -15,8 +15,7 @@ from bimanualshift.geometry.frames import compose_rotation, euler_bins_to_quat
 from bimanualshift.memory.bank import MemoryBank, Retrieval
 from bimanualshift.memory.reference import ProgressAlignment, episode_key, reference_vector
 from bimanualshift.methods.instruction_chooser import InstructionChooser
-from bimanualshift.methods.prior_step import ArmStep, FrozenPriorStep, world_action
-from bimanualshift.perception.goal_geometry import UNION_GEOMETRY_DIM
+from bimanualshift.methods.prior_step import ArmStep, FrozenPriorStep, goal_switches, world_action
 from bimanualshift.priors.base import UnimanualPrior
 from bimanualshift.residual.checkpoint import (
     load_residual_checkpoint,
@@ -206,8 +205,7 @@ def load_bimanualshift(directory: str | Path, text_encoder: TextEncoder | None =
     _, residual = load_residual_checkpoint(directory, residual_encoder.dim)
     memory = MemoryBank.load(directory / MEMORY_FILE) if rcfg.reference_dim > 0 else None
     prior_step = FrozenPriorStep(prior, text_encoder, use_projection=cfg.get("use_projection", True),
-                             locate_goal=rcfg.goal_dim > 0 or rcfg.start_goal_dim > 0,
-                             goal_objects=max(rcfg.goal_dim, rcfg.start_goal_dim) > UNION_GEOMETRY_DIM,
+                             **goal_switches(rcfg.goal_dim, rcfg.start_goal_dim),
                              segmenter=segmenter or cfg.get("segmenter", "simulator"),
                              segmenter_options=cfg.get("segmenter_options"),
                              proposal_features=rcfg.proposal_dim > 0,

@@ -12,6 +12,7 @@ from bimanualshift.encoders.text import TextEncoder
 from bimanualshift.geometry.frames import ArmFrame
 from bimanualshift.geometry.voxels import VoxelGrid
 from bimanualshift.methods.instruction_chooser import InstructionChooser, chooser_features
+from bimanualshift.perception.goal_geometry import UNION_GEOMETRY_DIM
 from bimanualshift.perception.observation import ArmObservationBuilder, arm_frames
 from bimanualshift.perception.projection import ArmProjection
 from bimanualshift.perception.segmenters import make_segmenter
@@ -29,6 +30,13 @@ class ArmStep:
     prior: PriorOutput  # batch of one, arm frame
     goal: np.ndarray  # (GOAL_GEOMETRY_DIM,) the goal's location in this arm's frame, from the projection
     asked: str = ""  # what the prior was asked when not the episode's instruction (``--prior-instruction``)
+
+
+def goal_switches(goal_dim: int, start_goal_dim: int) -> dict[str, bool]:
+    """``FrozenPriorStep``'s ``locate_goal`` and ``goal_objects`` for a residual reading these goal widths: the goal
+    is located when any is read, each goal noun's box only when a width reaches past the union's geometry."""
+    return {"locate_goal": goal_dim > 0 or start_goal_dim > 0,
+            "goal_objects": max(goal_dim, start_goal_dim) > UNION_GEOMETRY_DIM}
 
 
 class FrozenPriorStep:

@@ -25,7 +25,7 @@ from bimanualshift.memory.bank import MemoryBank, MemoryEntry
 from bimanualshift.memory.reference import REFERENCE_DIM, ProgressAlignment, episode_key, reference_vector
 from bimanualshift.methods.bimanualshift import MEMORY_FILE, save_residual
 from bimanualshift.methods.instruction_chooser import InstructionChooser
-from bimanualshift.methods.prior_step import FrozenPriorStep
+from bimanualshift.methods.prior_step import FrozenPriorStep, goal_switches
 from bimanualshift.perception.arm_samples import ArmSamples, build_arm_samples
 from bimanualshift.priors.base import PriorOutput, UnimanualPrior
 from bimanualshift.residual.manager import (
@@ -482,9 +482,13 @@ def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Pat
     atomic_write_json(out / "train_config.json", asdict(cfg))
     text_encoder = make_text_encoder(cfg.model.text_encoder)  # the prior keeps the encoder it was pretrained with
     prior = prior if prior is not None else UnimanualPrior.from_pretrained(cfg.prior)
+    bins = int(round(360 / prior.rotation_bin_degrees)) if prior.rotation_bin_degrees else 0
+    if cfg.model.action_space and not bins:
+        raise ValueError(f"the prior {cfg.prior} has no rotation bins and no translation heat-map: an action-space "
+                         "residual needs a PerAct-style or RVT-style prior (train with --action-space false)")
+    rcfg = cfg.model.residual_config(prior.feature_dim, text_encoder.dim, prior.proposal_feature_dim, bins)
     prior_step = FrozenPriorStep(prior, default_text_encoder(), use_projection=cfg.model.use_projection,
-                             locate_goal=cfg.model.goal_geometry or cfg.model.goal_at_start,
-                             goal_objects=cfg.model.goal_objects or cfg.model.goal_at_start,
+                             **goal_switches(rcfg.goal_dim, rcfg.start_goal_dim),
                              segmenter=cfg.model.segmenter,
                              segmenter_options=segmenter_options(cfg.model.grounding_dino, cfg.model.sam),
                              proposal_features=cfg.model.proposal_features)
@@ -493,11 +497,6 @@ def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Pat
         raise FileNotFoundError(f"no bimanual demos for {cfg.dataset.task} under {cfg.dataset.data}; run "
                                 f"`bimanualshift collect --task {cfg.dataset.task} --out {cfg.dataset.data}` first")
     instruction_choice = resolve_prior_instruction(cfg, prior_step, paths, out)
-    bins = int(round(360 / prior.rotation_bin_degrees)) if prior.rotation_bin_degrees else 0
-    if cfg.model.action_space and not bins:
-        raise ValueError(f"the prior {cfg.prior} has no rotation bins and no translation heat-map: an action-space "
-                         "residual needs a PerAct-style or RVT-style prior (train with --action-space false)")
-    rcfg = cfg.model.residual_config(prior.feature_dim, text_encoder.dim, prior.proposal_feature_dim, bins)
     if cfg.model.proposal_features and not prior.proposal_feature_dim:
         raise ValueError(f"the prior {cfg.prior} exposes no local features for the Manager to read at its proposal; "
                          "train with --proposal-features false")
