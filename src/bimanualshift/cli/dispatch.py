@@ -14,6 +14,7 @@ from typing import Any
 from bimanualshift.utils.config_files import CheckpointError, config_from_dict, read_json_file
 from bimanualshift.utils.pipes import quiet_on_closed_pipe
 from bimanualshift.utils.plugins import PluginError, add_plugins
+from bimanualshift.utils.progress import slow_bars_in_logs
 
 DESCRIPTION = """BimanualShift: reuse a frozen single-arm policy for both arms of a bimanual robot.
 
@@ -180,6 +181,7 @@ def run(parser: argparse.ArgumentParser, argv: list[str]) -> None:
         parser.print_help()
         raise SystemExit(0 if argv else 2)
     name, rest = argv[0], argv[1:]
+    slow_bars_in_logs(is_terminal=sys.stderr.isatty())
     try:
         with quiet_on_closed_pipe():  # `bimanualshift explain ... | head`
             if plugins:
