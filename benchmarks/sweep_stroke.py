@@ -7,7 +7,9 @@ The expert sets the brush head down (keyframe 5) just beyond the farthest dirt f
 towards the mouth (keyframe 6). Per method and outcome, from a bench folder's per-keyframe log (``keyframes.jsonl``):
 the brush arm's executed keyframe-5 position minus the expert's on the same seed, split along the stroke (positive:
 farther from the pan, behind the dirt; negative: short, onto the dirt) and across it. The brush arm is the one
-whose expert keyframes 4 and 6 lie farthest apart. Nothing is rolled out.
+whose expert keyframes 4 and 6 lie farthest apart. Also, at keyframe 5, how far the brush head is turned from the
+expert's (the gripper's heading about the vertical, modulo a half turn), and at keyframe 6 where the stroke ends
+along it (positive: stopped before the expert's end, short of the pan's mouth). Nothing is rolled out.
 """
 
 from __future__ import annotations
@@ -16,9 +18,10 @@ import argparse
 import time
 from collections import defaultdict
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from bimanualshift.evaluation.report import invoked_command, write_result
 from bimanualshift.utils.jsonl import read_records
@@ -29,24 +32,41 @@ ABOVE, DOWN, END = 4, 5, 6  # the expert's keyframes: above the stroke start, at
 SHORT_M = 0.01  # "short": set down more than this nearer the pan than the expert
 
 
-def stroke_offsets(steps: list[dict[str, Any]]) -> tuple[float, float] | None:
-    """(along, across) metres of the brush arm's set-down from the expert's, or None when the episode did not
-    reach the expert's stroke."""
+class StrokeOffsets(NamedTuple):
+    along: float  # metres, keyframe 5, + farther from the pan than the expert
+    across: float  # metres, keyframe 5
+    turn: float  # radians in [-pi/2, pi/2), keyframe 5: the head's heading minus the expert's
+    end_along: float  # metres, keyframe 6, + stopped before the expert's stroke end
+
+
+def _heading(quat: np.ndarray) -> float:
+    """The gripper's heading about the vertical: its x axis projected on the table ((x, y, z, w) quaternion)."""
+    x = Rotation.from_quat(quat).apply([1.0, 0.0, 0.0])
+    return float(np.arctan2(x[1], x[0]))
+
+
+def stroke_offsets(steps: list[dict[str, Any]]) -> StrokeOffsets | None:
+    """The brush arm's set-down and stroke end against the expert's, or None when the episode did not reach the
+    expert's stroke."""
     rows = {s["keyframe"]: s for s in steps}
     if any(k not in rows or rows[k]["expert"] is None for k in (ABOVE, DOWN, END)):
         return None
-    expert = {k: np.asarray(rows[k]["expert"])[:, :2] for k in (ABOVE, DOWN, END)}
-    arm = int(np.argmax(np.linalg.norm(expert[ABOVE] - expert[END], axis=1)))
-    along = expert[ABOVE][arm] - expert[END][arm]
+    expert = {k: np.asarray(rows[k]["expert"]) for k in (ABOVE, DOWN, END)}
+    arm = int(np.argmax(np.linalg.norm(expert[ABOVE][:, :2] - expert[END][:, :2], axis=1)))
+    along = expert[ABOVE][arm, :2] - expert[END][arm, :2]
     along /= np.linalg.norm(along)
-    offset = np.asarray(rows[DOWN]["executed"])[arm, :2] - expert[DOWN][arm]
-    return float(offset @ along), float(offset @ np.array([-along[1], along[0]]))
+    down = np.asarray(rows[DOWN]["executed"])[arm]
+    offset = down[:2] - expert[DOWN][arm, :2]
+    turn = _heading(down[3:7]) - _heading(expert[DOWN][arm, 3:7])
+    end = np.asarray(rows[END]["executed"])[arm, :2] - expert[END][arm, :2]
+    return StrokeOffsets(float(offset @ along), float(offset @ np.array([-along[1], along[0]])),
+                         float((turn + np.pi / 2) % np.pi - np.pi / 2), float(end @ along))
 
 
 def summarise(folder: Path) -> list[dict[str, Any]]:
     success = {(e["method"], e["seed"]): e["success"] for e in read_records(folder / "episodes.jsonl")
                if e["task"] == TASK and e.get("perturbation", "none") == "none"}
-    offsets: dict[tuple[str, bool], list[tuple[float, float]]] = defaultdict(list)
+    offsets: dict[tuple[str, bool], list[StrokeOffsets]] = defaultdict(list)
     for record in read_records(folder / "keyframes.jsonl"):
         key = (record["method"], record["seed"])
         if record["task"] != TASK or key not in success or record.get("perturbation", "none") != "none":
@@ -60,7 +80,9 @@ def summarise(folder: Path) -> list[dict[str, Any]]:
         rows.append({"method": method, "outcome": "success" if succeeded else "failure", "episodes": len(a),
                      "along_median_cm": round(100 * float(np.median(a[:, 0])), 1),
                      "short_fraction": round(float(np.mean(a[:, 0] < -SHORT_M)), 2),
-                     "across_abs_median_cm": round(100 * float(np.median(np.abs(a[:, 1]))), 1)})
+                     "across_abs_median_cm": round(100 * float(np.median(np.abs(a[:, 1]))), 1),
+                     "turn_abs_median_deg": round(float(np.degrees(np.median(np.abs(a[:, 2])))), 1),
+                     "end_along_median_cm": round(100 * float(np.median(a[:, 3])), 1)})
     return rows
 
 
@@ -76,14 +98,18 @@ def main() -> None:
     rows = summarise(folder)
     if not rows:
         raise SystemExit(f"{folder} holds no {TASK} episodes that reached the expert's stroke")
-    print(f"{'method':<22} {'outcome':<8} {'n':>3} {'along cm':>9} {'short':>6} {'|across| cm':>12}")
+    print(f"{'method':<22} {'outcome':<8} {'n':>3} {'along cm':>9} {'short':>6} {'|across| cm':>12} "
+          f"{'|turn| deg':>11} {'end cm':>7}")
     for r in rows:
         print(f"{r['method']:<22} {r['outcome']:<8} {r['episodes']:>3} {r['along_median_cm']:>9} "
-              f"{r['short_fraction']:>6} {r['across_abs_median_cm']:>12}")
+              f"{r['short_fraction']:>6} {r['across_abs_median_cm']:>12} {r['turn_abs_median_deg']:>11} "
+              f"{r['end_along_median_cm']:>7}")
     seeds = sorted({e["seed"] for e in read_records(folder / "episodes.jsonl") if e["task"] == TASK})
     write_result(args.out, invoked_command(), {"test": seeds}, started, rows, folder=str(folder),
                  notes="brush arm's keyframe-5 position minus the expert's: along the stroke (+ farther from the "
-                 f"pan) and across it; short = more than {100 * SHORT_M:.0f} cm nearer the pan; medians over episodes")
+                 f"pan) and across it; short = more than {100 * SHORT_M:.0f} cm nearer the pan; turn: the head's "
+                 "heading minus the expert's at keyframe 5 (modulo a half turn); end_along: keyframe 6 minus the "
+                 "expert's along the stroke (+ stopped before the expert's end); medians over episodes")
 
 
 if __name__ == "__main__":
