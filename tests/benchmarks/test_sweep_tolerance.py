@@ -37,7 +37,7 @@ def test_only_the_brush_arms_stroke_changes() -> None:
     after = sweep_tolerance.change_stroke(before, sweep_tolerance.StrokeChange(0.02, 0.3, 0.015))
     for k in range(8):
         np.testing.assert_array_equal(after[k]["left"].position, before[k]["left"].position)
-        np.testing.assert_array_equal(after[k]["left"].quat, before[k]["left"].quat)
+        assert abs(np.dot(after[k]["left"].quat, before[k]["left"].quat)) == pytest.approx(1.0)
         shift = after[k]["right"].position - before[k]["right"].position
         turned = _heading(after[k]["right"].quat) - _heading(before[k]["right"].quat)
         if k in (4, 5):  # stroke along -y: its left is +x
@@ -56,5 +56,15 @@ def test_no_change_keeps_the_expert() -> None:
     before = _keyframes()
     after = sweep_tolerance.change_stroke(before, sweep_tolerance.StrokeChange(0.0, 0.0, 0.0))
     for k in range(8):
+        np.testing.assert_allclose(after[k]["right"].position, before[k]["right"].position)
+        assert abs(np.dot(after[k]["right"].quat, before[k]["right"].quat)) == pytest.approx(1.0)
+
+
+def test_the_dustpan_grasp_turns_in_place() -> None:
+    before = _keyframes()
+    after = sweep_tolerance.change_stroke(before, sweep_tolerance.StrokeChange(0.0, 0.0, 0.0, pan_turn_rad=-0.5))
+    for k in range(8):
+        np.testing.assert_array_equal(after[k]["left"].position, before[k]["left"].position)
+        assert _heading(after[k]["left"].quat) - _heading(before[k]["left"].quat) == pytest.approx(-0.5)
         np.testing.assert_allclose(after[k]["right"].position, before[k]["right"].position)
         assert abs(np.dot(after[k]["right"].quat, before[k]["right"].quat)) == pytest.approx(1.0)
