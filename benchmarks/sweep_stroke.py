@@ -9,7 +9,8 @@ the brush arm's executed keyframe-5 position minus the expert's on the same seed
 farther from the pan, behind the dirt; negative: short, onto the dirt) and across it. The brush arm is the one
 whose expert keyframes 4 and 6 lie farthest apart. Also, at keyframe 5, how far the brush head is turned from the
 expert's (the gripper's heading about the vertical, modulo a half turn), and at keyframe 6 where the stroke ends
-along it (positive: stopped before the expert's end, short of the pan's mouth). Nothing is rolled out.
+along it (positive: stopped before the expert's end, short of the pan's mouth). And the other arm's grasp of the
+dustpan's handle at keyframe 2 (closed on it), turned from the expert's about the vertical. Nothing is rolled out.
 """
 
 from __future__ import annotations
@@ -29,6 +30,7 @@ from bimanualshift.utils.pipes import quiet_on_closed_pipe
 
 TASK = "sweep_to_dustpan"
 ABOVE, DOWN, END = 4, 5, 6  # the expert's keyframes: above the stroke start, at it, at the stroke's end
+PAN_HELD = 2  # the dustpan arm's first keyframe closed on the handle
 SHORT_M = 0.01  # "short": set down more than this nearer the pan than the expert
 
 
@@ -37,6 +39,12 @@ class StrokeOffsets(NamedTuple):
     across: float  # metres, keyframe 5
     turn: float  # radians in [-pi/2, pi/2), keyframe 5: the head's heading minus the expert's
     end_along: float  # metres, keyframe 6, + stopped before the expert's stroke end
+    pan_turn: float  # radians in [-pi/2, pi/2), keyframe 2: the dustpan arm's heading minus the expert's
+
+
+def _half_turn(angle: float) -> float:
+    """An angle between two parallel-gripper headings, which look the same every half turn: in [-pi/2, pi/2)."""
+    return float((angle + np.pi / 2) % np.pi - np.pi / 2)
 
 
 def _heading(quat: np.ndarray) -> float:
@@ -49,9 +57,9 @@ def stroke_offsets(steps: list[dict[str, Any]]) -> StrokeOffsets | None:
     """The brush arm's set-down and stroke end against the expert's, or None when the episode did not reach the
     expert's stroke."""
     rows = {s["keyframe"]: s for s in steps}
-    if any(k not in rows or rows[k]["expert"] is None for k in (ABOVE, DOWN, END)):
+    if any(k not in rows or rows[k]["expert"] is None for k in (PAN_HELD, ABOVE, DOWN, END)):
         return None
-    expert = {k: np.asarray(rows[k]["expert"]) for k in (ABOVE, DOWN, END)}
+    expert = {k: np.asarray(rows[k]["expert"]) for k in (PAN_HELD, ABOVE, DOWN, END)}
     arm = int(np.argmax(np.linalg.norm(expert[ABOVE][:, :2] - expert[END][:, :2], axis=1)))
     along = expert[ABOVE][arm, :2] - expert[END][arm, :2]
     along /= np.linalg.norm(along)
@@ -59,8 +67,10 @@ def stroke_offsets(steps: list[dict[str, Any]]) -> StrokeOffsets | None:
     offset = down[:2] - expert[DOWN][arm, :2]
     turn = _heading(down[3:7]) - _heading(expert[DOWN][arm, 3:7])
     end = np.asarray(rows[END]["executed"])[arm, :2] - expert[END][arm, :2]
-    return StrokeOffsets(float(offset @ along), float(offset @ np.array([-along[1], along[0]])),
-                         float((turn + np.pi / 2) % np.pi - np.pi / 2), float(end @ along))
+    pan = 1 - arm
+    pan_turn = _heading(np.asarray(rows[PAN_HELD]["executed"])[pan, 3:7]) - _heading(expert[PAN_HELD][pan, 3:7])
+    return StrokeOffsets(float(offset @ along), float(offset @ np.array([-along[1], along[0]])), _half_turn(turn),
+                         float(end @ along), _half_turn(pan_turn))
 
 
 def summarise(folder: Path) -> list[dict[str, Any]]:
@@ -82,7 +92,8 @@ def summarise(folder: Path) -> list[dict[str, Any]]:
                      "short_fraction": round(float(np.mean(a[:, 0] < -SHORT_M)), 2),
                      "across_abs_median_cm": round(100 * float(np.median(np.abs(a[:, 1]))), 1),
                      "turn_abs_median_deg": round(float(np.degrees(np.median(np.abs(a[:, 2])))), 1),
-                     "end_along_median_cm": round(100 * float(np.median(a[:, 3])), 1)})
+                     "end_along_median_cm": round(100 * float(np.median(a[:, 3])), 1),
+                     "pan_turn_abs_median_deg": round(float(np.degrees(np.median(np.abs(a[:, 4])))), 1)})
     return rows
 
 
@@ -99,17 +110,18 @@ def main() -> None:
     if not rows:
         raise SystemExit(f"{folder} holds no {TASK} episodes that reached the expert's stroke")
     print(f"{'method':<22} {'outcome':<8} {'n':>3} {'along cm':>9} {'short':>6} {'|across| cm':>12} "
-          f"{'|turn| deg':>11} {'end cm':>7}")
+          f"{'|turn| deg':>11} {'end cm':>7} {'|pan turn| deg':>15}")
     for r in rows:
         print(f"{r['method']:<22} {r['outcome']:<8} {r['episodes']:>3} {r['along_median_cm']:>9} "
               f"{r['short_fraction']:>6} {r['across_abs_median_cm']:>12} {r['turn_abs_median_deg']:>11} "
-              f"{r['end_along_median_cm']:>7}")
+              f"{r['end_along_median_cm']:>7} {r['pan_turn_abs_median_deg']:>15}")
     seeds = sorted({e["seed"] for e in read_records(folder / "episodes.jsonl") if e["task"] == TASK})
     write_result(args.out, invoked_command(), {"test": seeds}, started, rows, folder=str(folder),
                  notes="brush arm's keyframe-5 position minus the expert's: along the stroke (+ farther from the "
                  f"pan) and across it; short = more than {100 * SHORT_M:.0f} cm nearer the pan; turn: the head's "
                  "heading minus the expert's at keyframe 5 (modulo a half turn); end_along: keyframe 6 minus the "
-                 "expert's along the stroke (+ stopped before the expert's end); medians over episodes")
+                 "expert's along the stroke (+ stopped before the expert's end); pan_turn: the dustpan arm's heading "
+                 "minus the expert's at keyframe 2; medians over episodes")
 
 
 if __name__ == "__main__":

@@ -21,7 +21,8 @@ def _down(yaw: float) -> list[float]:
     return list(Rotation.from_euler("xz", [np.pi, yaw]).as_quat())
 
 
-def _steps(brush_down: tuple[float, float], turn: float = 0.0, stroke_end: float = 0.0) -> list[dict]:
+def _steps(brush_down: tuple[float, float], turn: float = 0.0, stroke_end: float = 0.0,
+           pan_turn: float = 0.0) -> list[dict]:
     """The right arm brushes along -y (from y = 0.2 to y = 0.0) with its gripper turned 0.3 rad; the left arm holds
     still. The executed set-down is ``brush_down``, turned ``turn`` more, and the stroke ends at y = ``stroke_end``."""
     expert = {4: (0.5, 0.2), 5: (0.5, 0.2), 6: (0.5, 0.0)}
@@ -34,6 +35,8 @@ def _steps(brush_down: tuple[float, float], turn: float = 0.0, stroke_end: float
             done[1][3:7] = _down(0.3 + turn)
         if k == 6:
             done[1][1] = stroke_end
+        if k == 2:
+            done[0][3:7] = _down(pan_turn)
         steps.append({"keyframe": k, "executed": done, "expert": ex})
     return steps
 
@@ -41,7 +44,7 @@ def _steps(brush_down: tuple[float, float], turn: float = 0.0, stroke_end: float
 def test_offsets_are_split_along_and_across_the_stroke() -> None:
     found = sweep_stroke.stroke_offsets(_steps((0.52, 0.17)))  # 3 cm short (towards the pan), 2 cm aside
     assert found.along == pytest.approx(-0.03) and abs(found.across) == pytest.approx(0.02)
-    assert found.turn == pytest.approx(0.0) and found.end_along == pytest.approx(0.0)
+    assert found.turn == pytest.approx(0.0) and found.end_along == pytest.approx(0.0) and found.pan_turn == 0.0
     assert sweep_stroke.stroke_offsets(_steps((0.5, 0.2))[:5]) is None  # never reached the stroke
 
 
@@ -51,6 +54,12 @@ def test_head_turn_and_stroke_end() -> None:
     # a parallel gripper looks the same every half turn: turned by pi + 0.1 is 0.1 off
     assert sweep_stroke.stroke_offsets(_steps((0.5, 0.2), turn=np.pi + 0.1)).turn == pytest.approx(0.1)
     assert sweep_stroke.stroke_offsets(_steps((0.5, 0.2), stroke_end=-0.01)).end_along == pytest.approx(-0.01)
+
+
+def test_the_dustpan_grasp_turn_is_the_other_arms() -> None:
+    found = sweep_stroke.stroke_offsets(_steps((0.5, 0.2), turn=0.1, pan_turn=0.6))
+    assert found.pan_turn == pytest.approx(0.6) and found.turn == pytest.approx(0.1)
+    assert sweep_stroke.stroke_offsets(_steps((0.5, 0.2), pan_turn=-np.pi + 0.2)).pan_turn == pytest.approx(0.2)
 
 
 def test_summary_per_method_and_outcome(tmp_path: Path) -> None:
