@@ -10,7 +10,8 @@ farther from the pan, behind the dirt; negative: short, onto the dirt) and acros
 whose expert keyframes 4 and 6 lie farthest apart. Also, at keyframe 5, how far the brush head is turned from the
 expert's (the gripper's heading about the vertical, modulo a half turn), and at keyframe 6 where the stroke ends
 along it (positive: stopped before the expert's end, short of the pan's mouth). And the other arm's grasp of the
-dustpan's handle at keyframe 2 (closed on it), turned from the expert's about the vertical. Nothing is rolled out.
+dustpan's handle at keyframe 2 (closed on it), turned from the expert's about the vertical, and for methods on a frozen
+prior the prior's own proposal there (before the residual). Nothing is rolled out.
 """
 
 from __future__ import annotations
@@ -40,6 +41,7 @@ class StrokeOffsets(NamedTuple):
     turn: float  # radians in [-pi/2, pi/2), keyframe 5: the head's heading minus the expert's
     end_along: float  # metres, keyframe 6, + stopped before the expert's stroke end
     pan_turn: float  # radians in [-pi/2, pi/2), keyframe 2: the dustpan arm's heading minus the expert's
+    prior_pan_turn: float  # the same for the frozen prior's proposal; NaN for a method without one
 
 
 def _half_turn(angle: float) -> float:
@@ -68,9 +70,13 @@ def stroke_offsets(steps: list[dict[str, Any]]) -> StrokeOffsets | None:
     turn = _heading(down[3:7]) - _heading(expert[DOWN][arm, 3:7])
     end = np.asarray(rows[END]["executed"])[arm, :2] - expert[END][arm, :2]
     pan = 1 - arm
-    pan_turn = _heading(np.asarray(rows[PAN_HELD]["executed"])[pan, 3:7]) - _heading(expert[PAN_HELD][pan, 3:7])
+    expert_heading = _heading(expert[PAN_HELD][pan, 3:7])
+    pan_turn = _heading(np.asarray(rows[PAN_HELD]["executed"])[pan, 3:7]) - expert_heading
+    arms = (rows[PAN_HELD].get("policy") or {}).get("arms") or []
+    prior = arms[pan].get("prior") if len(arms) > pan else None
+    prior_turn = _half_turn(_heading(np.asarray(prior)[3:7]) - expert_heading) if prior else float("nan")
     return StrokeOffsets(float(offset @ along), float(offset @ np.array([-along[1], along[0]])), _half_turn(turn),
-                         float(end @ along), _half_turn(pan_turn))
+                         float(end @ along), _half_turn(pan_turn), prior_turn)
 
 
 def summarise(folder: Path) -> list[dict[str, Any]]:
@@ -93,7 +99,9 @@ def summarise(folder: Path) -> list[dict[str, Any]]:
                      "across_abs_median_cm": round(100 * float(np.median(np.abs(a[:, 1]))), 1),
                      "turn_abs_median_deg": round(float(np.degrees(np.median(np.abs(a[:, 2])))), 1),
                      "end_along_median_cm": round(100 * float(np.median(a[:, 3])), 1),
-                     "pan_turn_abs_median_deg": round(float(np.degrees(np.median(np.abs(a[:, 4])))), 1)})
+                     "pan_turn_abs_median_deg": round(float(np.degrees(np.median(np.abs(a[:, 4])))), 1),
+                     "prior_pan_turn_abs_median_deg": None if np.isnan(a[:, 5]).any()
+                     else round(float(np.degrees(np.median(np.abs(a[:, 5])))), 1)})
     return rows
 
 
@@ -110,18 +118,20 @@ def main() -> None:
     if not rows:
         raise SystemExit(f"{folder} holds no {TASK} episodes that reached the expert's stroke")
     print(f"{'method':<22} {'outcome':<8} {'n':>3} {'along cm':>9} {'short':>6} {'|across| cm':>12} "
-          f"{'|turn| deg':>11} {'end cm':>7} {'|pan turn| deg':>15}")
+          f"{'|turn| deg':>11} {'end cm':>7} {'|pan turn| deg':>15} {'prior':>6}")
     for r in rows:
         print(f"{r['method']:<22} {r['outcome']:<8} {r['episodes']:>3} {r['along_median_cm']:>9} "
               f"{r['short_fraction']:>6} {r['across_abs_median_cm']:>12} {r['turn_abs_median_deg']:>11} "
-              f"{r['end_along_median_cm']:>7} {r['pan_turn_abs_median_deg']:>15}")
+              f"{r['end_along_median_cm']:>7} {r['pan_turn_abs_median_deg']:>15} "
+              f"{'-' if r['prior_pan_turn_abs_median_deg'] is None else r['prior_pan_turn_abs_median_deg']:>6}")
     seeds = sorted({e["seed"] for e in read_records(folder / "episodes.jsonl") if e["task"] == TASK})
     write_result(args.out, invoked_command(), {"test": seeds}, started, rows, folder=str(folder),
                  notes="brush arm's keyframe-5 position minus the expert's: along the stroke (+ farther from the "
                  f"pan) and across it; short = more than {100 * SHORT_M:.0f} cm nearer the pan; turn: the head's "
                  "heading minus the expert's at keyframe 5 (modulo a half turn); end_along: keyframe 6 minus the "
                  "expert's along the stroke (+ stopped before the expert's end); pan_turn: the dustpan arm's heading "
-                 "minus the expert's at keyframe 2; medians over episodes")
+                 "minus the expert's at keyframe 2 (prior_pan_turn: the frozen prior's proposal's, for methods on "
+                 "one); medians over episodes")
 
 
 if __name__ == "__main__":

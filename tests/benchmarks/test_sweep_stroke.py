@@ -60,6 +60,15 @@ def test_the_dustpan_grasp_turn_is_the_other_arms() -> None:
     found = sweep_stroke.stroke_offsets(_steps((0.5, 0.2), turn=0.1, pan_turn=0.6))
     assert found.pan_turn == pytest.approx(0.6) and found.turn == pytest.approx(0.1)
     assert sweep_stroke.stroke_offsets(_steps((0.5, 0.2), pan_turn=-np.pi + 0.2)).pan_turn == pytest.approx(0.2)
+    assert np.isnan(found.prior_pan_turn)  # no frozen prior logged
+
+
+def test_the_frozen_priors_own_dustpan_grasp() -> None:
+    steps = _steps((0.5, 0.2), pan_turn=0.2)
+    steps[2]["policy"] = {"arms": [{"arm": "left", "prior": [0.3, 0.3, 1.0, *_down(1.3)]},
+                                   {"arm": "right", "prior": [0.5, 0.3, 1.0, *_down(0.0)]}]}
+    found = sweep_stroke.stroke_offsets(steps)
+    assert found.prior_pan_turn == pytest.approx(1.3) and found.pan_turn == pytest.approx(0.2)
 
 
 def test_summary_per_method_and_outcome(tmp_path: Path) -> None:
