@@ -108,6 +108,8 @@ def test_generic_table_gives_every_rows_fields_a_column() -> None:
     lines = generic_table(result).splitlines()
     assert lines[0] == "| what | seconds | episodes per min |"
     assert lines[2] == "| train | 714.6 |  |" and lines[3] == "| eval |  | 5 |"
+    result["rows"].append({"what": "none", "seconds": None})  # a field not measured for this row
+    assert generic_table(result).splitlines()[4] == "| none | – |  |"
 
 
 def test_a_study_table_carries_its_targets_checked_on_its_rows() -> None:

@@ -91,7 +91,9 @@ def generic_table(result: dict[str, Any]) -> str:
     columns = list(dict.fromkeys(k for r in rows for k, v in r.items() if isinstance(v, (str, int, float, bool))))
     lines = ["| " + " | ".join(c.replace("_", " ") for c in columns) + " |", "|" + "---|" * len(columns)]
     for r in rows:
-        cells = [_number(r[c]) if isinstance(r.get(c), float) else str(r.get(c, "")) for c in columns]
+        # a field a row lacks stays blank; one it holds as null (not measured for it) reads as a dash
+        cells = [_number(r[c]) if isinstance(r.get(c), float) else "–" if c in r and r[c] is None
+                 else str(r.get(c, "")) for c in columns]
         lines.append("| " + " | ".join(cells) + " |")
     lines.append("")
     lines.append(f"Produced by `{result['command']}` at commit `{result['commit'][:12]}` on {result['created']} "
