@@ -280,6 +280,7 @@ def test_an_action_space_residual_trains_and_acts(demo_root: Path, tiny_prior: P
     assert cfg.action_space and cfg.lattice_cells == 125 and cfg.rotation_bins == 36 and not cfg.output_gate
     summary = json.loads((tmp_path / "summary.json").read_text())
     assert "prior_plus_residual_median_m" in summary["validation_translation_error"]
+    assert summary["validation_rotation_error"] == {}  # its rotation is the prior's bins, not a turn to measure
     env = ManipulationEnv("push_two_buttons", image_size=64)
     try:
         record = rollout(env, policy, seed=200_000, max_keyframes=1)
@@ -317,6 +318,12 @@ def test_residual_training_follows_the_learning_rate_schedule(demo_root: Path, t
     for name in ("prior", "prior_plus_residual"):
         assert len(per[f"{name}_median_m"]) == len(per["keyframes"])
         assert min(per[f"{name}_median_m"]) <= report[f"{name}_median_m"] <= max(per[f"{name}_median_m"])
+    # and the rotation error by arm and keyframe (a large turn learnt only in part shows at its keyframe)
+    rotation = json.loads((tmp_path / "cosine" / "summary.json").read_text())["validation_rotation_error"]
+    assert sorted(k for k in rotation if k.startswith("arm_")) == ["arm_0_per_keyframe", "arm_1_per_keyframe"]
+    for arm in ("arm_0_per_keyframe", "arm_1_per_keyframe"):
+        assert len(rotation[arm]["prior_plus_residual_median_rad"]) == len(rotation[arm]["keyframes"])
+    assert rotation["prior_median_rad"] >= 0 and rotation["prior_plus_residual_median_rad"] >= 0
 
 
 def test_first_keyframes_goal_is_read_at_every_keyframe_and_reset(demo_root: Path, tiny_prior: Path,

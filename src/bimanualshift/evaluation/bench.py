@@ -189,7 +189,8 @@ def refinement_records(cfg: BenchConfig, tasks: list[str]) -> dict[str, dict[str
                         REFINEMENT_FIELDS, "scenes")
 
 
-TRAINING_FIELDS = ("best", "stopped_early_at", "validation_translation_error", "output_gate")
+TRAINING_FIELDS = ("best", "stopped_early_at", "validation_translation_error", "validation_rotation_error",
+                   "output_gate")
 
 
 def training_records(cfg: BenchConfig, tasks: list[str]) -> dict[str, dict[str, Any]]:
