@@ -191,6 +191,11 @@ register_method(_residual_method(
     "balanced_residual on validation seeds)", refine=False, retrieval=True, goal_extremities=True,
     schedule="cosine", beta=0.01, select_by="clipped_error", quaternion_sign="gripper_down"))
 register_method(_residual_method(
+    "nearest_twin", "variant: the full method before refinement whose rotation residual is trained towards the "
+    "expert's grasp or its twin half a turn about the gripper's axis (the same parallel grasp), whichever is nearer "
+    "the prior's proposal (compare with no_refinement on validation seeds)", refine=False, retrieval=True,
+    rotation_target="nearest_twin"))
+register_method(_residual_method(
     "object_boxes", "variant: the full method before refinement whose Manager also reads each goal noun's own box "
     "(the tray's beside the oven's; the dirt's beside the dustpan's and the brush's) next to the union's box and "
     "extremities (compare with no_refinement on validation seeds)", refine=False, retrieval=True, goal_objects=True))

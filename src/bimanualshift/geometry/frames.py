@@ -119,6 +119,18 @@ def gripper_angle_deg(quat_a: np.ndarray, quat_b: np.ndarray) -> float:
     return float(np.degrees(min((a.inv() * b).magnitude(), (a.inv() * flipped).magnitude())))
 
 
+def nearest_grasp_twin(quat_target: np.ndarray, quat_base: np.ndarray) -> np.ndarray:
+    """``quat_target`` or its twin half a turn about the gripper's own approach axis (local z), whichever is nearer
+    ``quat_base``. A parallel gripper closes the same way in both, so the twin is the same grasp; a target whose
+    twin lies nearer the prior's proposal asks the residual for the smaller turn. The demos' wrist yaw is wrapped
+    into a half turn, so a grasp near the wrap's edge (sweep's dustpan handle) comes as either twin at random."""
+    target = Rotation.from_quat(quat_target)
+    twin = target * Rotation.from_euler("z", np.pi)
+    base = Rotation.from_quat(quat_base)
+    nearer = (base.inv() * twin).magnitude() < (base.inv() * target).magnitude()
+    return twin.as_quat() if nearer else np.asarray(quat_target, dtype=np.float64)
+
+
 def rotation_difference(quat_target: np.ndarray, quat_base: np.ndarray) -> np.ndarray:
     """Axis-angle r with exp(r) * R_base = R_target (inverse of ``compose_rotation``)."""
     return (Rotation.from_quat(quat_target) * Rotation.from_quat(quat_base).inv()).as_rotvec()

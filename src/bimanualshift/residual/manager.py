@@ -11,6 +11,7 @@ from bimanualshift.geometry.torch_rotations import quat_toward
 from bimanualshift.residual.skills import SkillBasis
 
 QUATERNION_SIGNS = ("w_positive", "gripper_down")
+ROTATION_TARGETS = ("expert", "nearest_twin")
 
 
 @dataclass
@@ -63,10 +64,16 @@ class ResidualConfig:
     # Width of the goal geometry as the episode's first keyframe saw it, read beside the current one: where things
     # lay before the arms moved or hid them (dirt under the brush); 0 = not read (checkpoints from before it).
     start_goal_dim: int = 0
+    # The orientation the rotation residual is trained towards, here so that refinement's corrections use the same:
+    # "expert" as the demos give it, or "nearest_twin": the expert's or its twin half a turn about the gripper's
+    # approach axis (the same parallel grasp), whichever is nearer the prior's proposal (geometry.frames).
+    rotation_target: str = "expert"
 
     def __post_init__(self) -> None:
         if self.quaternion_sign not in QUATERNION_SIGNS:
             raise ValueError(f"quaternion_sign is one of {', '.join(QUATERNION_SIGNS)}, got {self.quaternion_sign!r}")
+        if self.rotation_target not in ROTATION_TARGETS:
+            raise ValueError(f"rotation_target is one of {', '.join(ROTATION_TARGETS)}, got {self.rotation_target!r}")
 
     @property
     def gate_slots(self) -> int:

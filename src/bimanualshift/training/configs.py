@@ -134,6 +134,11 @@ class ResidualModelConfig:
     # "w_positive" as the environment gives them (w >= 0, which flips at random near the gripper-down pose; half
     # the demos' poses). Chosen on validation seeds (docs/residual.md).
     quaternion_sign: str = "gripper_down"
+    # What the rotation residual is trained towards: "expert" (the demos' orientation) or "nearest_twin" (the
+    # expert's or its twin half a turn about the gripper's approach axis, the same parallel grasp, whichever is
+    # nearer the prior's proposal: the demos' wrist yaw is wrapped into a half turn, so a grasp at the wrap's edge
+    # comes as either twin at random, and the residual averages the two turns; docs/residual.md).
+    rotation_target: str = "expert"
     # What the frozen prior is asked: "" the episode's own instruction (the paper), "auto" the instruction of the
     # prior's pretraining suite whose proposals lie closest to the training demos' keyframes when it clearly beats
     # the task's own (training/prior_instruction.py), "per_arm" per arm the instruction a classifier picks from
@@ -164,7 +169,7 @@ class ResidualModelConfig:
                               action_space=self.action_space, action_window=self.action_window,
                               action_cell_m=self.action_cell_m,
                               rotation_bins=rotation_bins if self.action_space else 0,
-                              quaternion_sign=self.quaternion_sign,
+                              quaternion_sign=self.quaternion_sign, rotation_target=self.rotation_target,
                               start_goal_dim=GOAL_GEOMETRY_DIM if self.goal_at_start else 0)
 
 

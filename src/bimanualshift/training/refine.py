@@ -36,7 +36,7 @@ from bimanualshift.data.episode import list_episodes
 from bimanualshift.data.frames import KeyframeObservation
 from bimanualshift.data.seeds import split_seeds
 from bimanualshift.encoders.text import TextEncoder
-from bimanualshift.geometry.frames import gripper_angle_deg, rotation_difference
+from bimanualshift.geometry.frames import gripper_angle_deg
 from bimanualshift.memory.bank import MemoryBank, MemoryEntry
 from bimanualshift.methods.bimanualshift import MEMORY_FILE, BimanualShift, load_bimanualshift, save_residual
 from bimanualshift.residual.output_gate import choose_output_scale, reset_output_scale
@@ -54,6 +54,7 @@ from bimanualshift.training.residual_trainer import (
     bc_loss,
     repeats,
     residual_data,
+    rotation_target,
     validation_losses,
 )
 from bimanualshift.utils.config_files import config_from_dict, load_safetensors, read_json_file
@@ -116,7 +117,7 @@ def run_policy(env: ManipulationEnv, policy: BimanualShift, seed: int, max_keyfr
                 base = d.step.prior  # Eq. 10: the target is relative to the frozen prior's action
                 correction.inputs.append(d.inputs)
                 correction.translation.append(pos - base.position[0].numpy())
-                correction.rotation.append(rotation_difference(quat, base.quat[0].numpy()))
+                correction.rotation.append(rotation_target(policy.residual.config, quat, base.quat[0].numpy()))
                 correction.gripper.append(float(expert[7] > 0.5))
                 correction.hold.append(float(k > 0 and repeats(expert, corrector[k - 1][i])))
                 if policy.residual.config.action_space:  # Eq. 10 in the prior's own action space

@@ -20,7 +20,7 @@ from scipy.spatial.transform import Rotation
 
 from bimanualshift.data.episode import list_episodes
 from bimanualshift.encoders.text import TextEncoder, default_text_encoder, make_text_encoder
-from bimanualshift.geometry.frames import quat_to_euler_bins, rotation_difference
+from bimanualshift.geometry.frames import nearest_grasp_twin, quat_to_euler_bins, rotation_difference
 from bimanualshift.geometry.voxels import VoxelGrid
 from bimanualshift.memory.bank import MemoryBank, MemoryEntry
 from bimanualshift.memory.reference import REFERENCE_DIM, ProgressAlignment, episode_key, reference_vector
@@ -119,6 +119,14 @@ def repeats(action: np.ndarray, previous: np.ndarray) -> bool:
     return bool(near and turned < HOLD_TOLERANCE_RAD and (action[7] > 0.5) == (previous[7] > 0.5))
 
 
+def rotation_target(config: ResidualConfig, quat_target: np.ndarray, quat_base: np.ndarray) -> np.ndarray:
+    """The rotation residual's target (axis-angle r with exp(r) * R_prior = R_target) under the config's
+    ``rotation_target``: towards the expert's orientation, or its grasp twin nearer the prior's proposal."""
+    if config.rotation_target == "nearest_twin":
+        quat_target = nearest_grasp_twin(quat_target, quat_base)
+    return rotation_difference(quat_target, quat_base)
+
+
 def residual_data(config: ResidualConfig, paths: list[Path], prior_step: FrozenPriorStep, text_encoder: TextEncoder,
                   desc: str, augmentation: Se3Augmentation | None = None, augment_copies: int = 0, seed: int = 0,
                   memory: MemoryBank | None = None, own_memory: bool = False, build_memory: float | None = None,
@@ -199,7 +207,8 @@ def residual_data(config: ResidualConfig, paths: list[Path], prior_step: FrozenP
         inputs = manager_input_rows(config, features_t, proprio, other, text, base_t, arm_index,
                                     torch.as_tensor(samples.keyframe), reference, goal, proposal_t, start_goal)
         translation = moved_pos - base_t[:, :3]
-        rotation = torch.as_tensor(np.stack([rotation_difference(t, b) for t, b in zip(quat, base_t[:, 3:7].numpy())]),
+        base_quat = base_t[:, 3:7].numpy()
+        rotation = torch.as_tensor(np.stack([rotation_target(config, t, b) for t, b in zip(quat, base_quat)]),
                                    dtype=torch.float32)
         action_targets = {name: torch.cat([part[name] for part in action_parts]) for name in ACTION_SPACE_FIELDS
                           } if action_parts else {}
