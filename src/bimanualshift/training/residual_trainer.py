@@ -398,9 +398,10 @@ def translation_report(residual: ResidualPolicy, data: ResidualData) -> dict[str
 
 
 def rotation_report(residual: ResidualPolicy, data: ResidualData) -> dict[str, Any]:
-    """How far the prior alone and prior + residual turn from the expert's orientation (radians, validation data),
-    per arm and keyframe slot when the inputs carry the phase: a large correction learnt only in part shows there
-    (sweep's dustpan grasp). None for a residual in the prior's action space, whose rotation is bins."""
+    """How far the prior alone and prior + residual turn from the orientation the residual is trained towards (the
+    expert's, or its grasp twin with ``rotation_target="nearest_twin"``; radians, validation data), per arm and
+    keyframe slot when the inputs carry the phase: a large correction learnt only in part shows there (sweep's
+    dustpan grasp). Empty for a residual in the prior's action space, whose rotation is bins."""
     with torch.no_grad():
         out = residual(data.inputs)
     if "rotation_logits" in out:
