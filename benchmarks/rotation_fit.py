@@ -7,7 +7,9 @@ Teacher-forced: every keyframe of the demos is given to the frozen prior and the
 the angle left between prior + residual and the expert is measured (``validation_rotation_error`` of the training
 summary, here on both splits and without augmentation). A small error on the training demos and a large one on
 the validation demos is a residual that fits what it saw and does not generalise; large on both is one that never
-learnt the turn; small on both, with large turns in closed loop, is states the demos never showed. Reads the run's
+learnt the turn; small on both, with large turns in closed loop, is states the demos never showed. Per keyframe it
+also gives the share of targets that turn counter-clockwise about the vertical: near 0 or 1 the demos ask one way,
+near a half two ways (a grasp whose two half-turn twins lie equally far from the prior's proposal). Reads the run's
 ``train_config.json`` for its demos and loads its ``best`` checkpoint (the run before refinement). Nothing is
 rolled out.
 """
@@ -50,22 +52,29 @@ def main() -> None:
         data = residual_data(rcfg, paths, policy.prior_step, policy.text_encoder, f"prior outputs ({split})",
                              memory=policy.memory, own_memory=own and policy.memory is not None)
         report = rotation_report(policy.residual, data)
+        phase = data.inputs[:, rcfg.layout()["phase"]].argmax(-1)
+        per_arm = rcfg.phase_dim // rcfg.num_arms
         for arm in sorted(k for k in report if k.startswith("arm_")):
-            per = report[arm]
+            per, index = report[arm], int(arm.split("_")[1])
             for i, keyframe in enumerate(per["keyframes"]):
-                rows.append({"split": split, "arm": int(arm.split("_")[1]), "keyframe": keyframe,
+                rows_here = (phase // per_arm == index) & (phase % per_arm == keyframe)
+                rows.append({"split": split, "arm": index, "keyframe": keyframe,
                              "prior_deg": round(57.29578 * per["prior_median_rad"][i], 1),
-                             "prior_plus_residual_deg": round(57.29578 * per["prior_plus_residual_median_rad"][i], 1)})
+                             "prior_plus_residual_deg": round(57.29578 * per["prior_plus_residual_median_rad"][i], 1),
+                             "counter_clockwise_share": round(float((data.rotation[rows_here, 2] > 0).float().mean()),
+                                                              2)})
         print(f"{split}: prior {57.29578 * report['prior_median_rad']:.1f} deg, prior + residual "
               f"{57.29578 * report['prior_plus_residual_median_rad']:.1f} deg (medians over every arm and keyframe)")
     for row in rows:
         print(f"{row['split']:<10} arm {row['arm']} k{row['keyframe']:<2} prior {row['prior_deg']:6.1f}  "
-              f"prior + residual {row['prior_plus_residual_deg']:6.1f}")
+              f"prior + residual {row['prior_plus_residual_deg']:6.1f}  "
+              f"counter-clockwise {row['counter_clockwise_share']}")
     out = args.out or f"results/rotation_fit/{task}.json"
     write_result(out, invoked_command(), {}, started, rows, task=task, run=str(run),
                  notes="teacher-forced on the run's training demos (unaugmented) and validation demos: median angle "
                        "between the expert's orientation and the prior's (prior_deg) or prior + residual's, per arm "
-                       "(0 left, 1 right) and keyframe; the run's best/ checkpoint")
+                       "(0 left, 1 right) and keyframe; counter_clockwise_share: the share of its rotation targets "
+                       "turning counter-clockwise about the vertical; the run's best/ checkpoint")
 
 
 if __name__ == "__main__":
