@@ -21,9 +21,12 @@ import json
 import time
 from pathlib import Path
 
+import numpy as np
+
 from bimanualshift.data.episode import list_episodes
 from bimanualshift.evaluation.report import invoked_command, write_result
 from bimanualshift.methods.bimanualshift import load_bimanualshift
+from bimanualshift.residual.manager import arm_and_slot
 from bimanualshift.training.residual_trainer import residual_data, rotation_report
 from bimanualshift.utils.pipes import quiet_on_closed_pipe
 
@@ -52,19 +55,19 @@ def main() -> None:
         data = residual_data(rcfg, paths, policy.prior_step, policy.text_encoder, f"prior outputs ({split})",
                              memory=policy.memory, own_memory=own and policy.memory is not None)
         report = rotation_report(policy.residual, data)
-        phase = data.inputs[:, rcfg.layout()["phase"]].argmax(-1)
-        per_arm = rcfg.phase_dim // rcfg.num_arms
+        arms, slots = arm_and_slot(rcfg, data.inputs)
         for arm in sorted(k for k in report if k.startswith("arm_")):
             per, index = report[arm], int(arm.split("_")[1])
             for i, keyframe in enumerate(per["keyframes"]):
-                rows_here = (phase // per_arm == index) & (phase % per_arm == keyframe)
+                rows_here = (arms == index) & (slots == keyframe)
                 rows.append({"split": split, "arm": index, "keyframe": keyframe,
-                             "prior_deg": round(57.29578 * per["prior_median_rad"][i], 1),
-                             "prior_plus_residual_deg": round(57.29578 * per["prior_plus_residual_median_rad"][i], 1),
+                             "prior_deg": round(float(np.degrees(per["prior_median_rad"][i])), 1),
+                             "prior_plus_residual_deg": round(float(np.degrees(
+                                 per["prior_plus_residual_median_rad"][i])), 1),
                              "counter_clockwise_share": round(float((data.rotation[rows_here, 2] > 0).float().mean()),
                                                               2)})
-        print(f"{split}: prior {57.29578 * report['prior_median_rad']:.1f} deg, prior + residual "
-              f"{57.29578 * report['prior_plus_residual_median_rad']:.1f} deg (medians over every arm and keyframe)")
+        print(f"{split}: prior {np.degrees(report['prior_median_rad']):.1f} deg, prior + residual "
+              f"{np.degrees(report['prior_plus_residual_median_rad']):.1f} deg (medians over every arm and keyframe)")
     for row in rows:
         print(f"{row['split']:<10} arm {row['arm']} k{row['keyframe']:<2} prior {row['prior_deg']:6.1f}  "
               f"prior + residual {row['prior_plus_residual_deg']:6.1f}  "

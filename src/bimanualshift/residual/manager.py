@@ -207,7 +207,15 @@ class ResidualPolicy(nn.Module):
 
 def keyframe_slots(config: ResidualConfig, inputs: torch.Tensor) -> torch.Tensor:
     """(N,) each raw Manager input row's keyframe slot, read from its (arm, keyframe) phase one-hot."""
-    return inputs[:, config.layout()["phase"]].argmax(-1) % (config.phase_dim // config.num_arms)
+    return arm_and_slot(config, inputs)[1]
+
+
+def arm_and_slot(config: ResidualConfig, inputs: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    """(N,) each raw Manager input row's arm index and (N,) its keyframe slot, read from its (arm, keyframe) phase
+    one-hot (arm-major: one block of slots per arm)."""
+    phase = inputs[:, config.layout()["phase"]].argmax(-1)
+    per_arm = config.phase_dim // config.num_arms
+    return phase // per_arm, phase % per_arm
 
 
 def action_lattice(config: ResidualConfig) -> torch.Tensor:

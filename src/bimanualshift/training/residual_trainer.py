@@ -33,6 +33,7 @@ from bimanualshift.residual.manager import (
     ResidualConfig,
     ResidualPolicy,
     action_lattice,
+    arm_and_slot,
     keyframe_slots,
     manager_input_rows,
 )
@@ -413,14 +414,11 @@ def rotation_report(residual: ResidualPolicy, data: ResidualData) -> dict[str, A
               ("prior_plus_residual", torch.from_numpy((final.inv() * target).magnitude())))
     report: dict[str, Any] = {f"{name}_median_rad": round(float(err.median()), 4) for name, err in errors}
     if residual.config.phase_dim:
-        phase = data.inputs[:, residual.config.layout()["phase"]].argmax(-1)
-        per_arm = residual.config.phase_dim // residual.config.num_arms
-        for arm in sorted({int(a) for a in phase // per_arm}):
-            slots = phase[phase // per_arm == arm] % per_arm
-            seen = sorted({int(s) for s in slots})
+        arms, slots = arm_and_slot(residual.config, data.inputs)
+        for arm in sorted({int(a) for a in arms}):
+            seen = sorted({int(s) for s in slots[arms == arm]})
             report[f"arm_{arm}_per_keyframe"] = {"keyframes": seen, **{f"{name}_median_rad": [
-                round(float(err[phase // per_arm == arm][slots == s].median()), 4) for s in seen]
-                for name, err in errors}}
+                round(float(err[(arms == arm) & (slots == s)].median()), 4) for s in seen] for name, err in errors}}
     return report
 
 
