@@ -196,6 +196,11 @@ register_method(_residual_method(
     "the prior's proposal (compare with no_refinement on validation seeds)", refine=False, retrieval=True,
     rotation_target="nearest_twin"))
 register_method(_residual_method(
+    "slot_twin", "variant: the full method before refinement whose rotation residual is trained towards the "
+    "expert's grasp or its twin half a turn about the gripper's axis, whichever is nearer the training demos' mean "
+    "grasp at the same arm and keyframe slot (compare with no_refinement on validation seeds)", refine=False,
+    retrieval=True, rotation_target="slot_twin"))
+register_method(_residual_method(
     "object_boxes", "variant: the full method before refinement whose Manager also reads each goal noun's own box "
     "(the tray's beside the oven's; the dirt's beside the dustpan's and the brush's) next to the union's box and "
     "extremities (compare with no_refinement on validation seeds)", refine=False, retrieval=True, goal_objects=True))

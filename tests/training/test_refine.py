@@ -15,7 +15,7 @@ from safetensors.torch import load_file
 
 from bimanualshift.data.frames import KeyframeObservation, scene_of_env
 from bimanualshift.encoders.text import default_text_encoder
-from bimanualshift.geometry.frames import compose_rotation, quat_to_euler_bins
+from bimanualshift.geometry.frames import compose_rotation, nearest_grasp_twin, quat_to_euler_bins
 from bimanualshift.memory.bank import MemoryBank
 from bimanualshift.methods.bimanualshift import MEMORY_FILE, BimanualShift, load_bimanualshift
 from bimanualshift.residual.manager import action_lattice
@@ -281,3 +281,22 @@ def test_scenes_from_copies_validation_scenes_only_from_the_same_validation_seed
     other = replace(same, out=str(tmp_path / "other"), validation_start=8)
     assert reuse_scenes(other) == 1  # its validation scene is another seed: rolled out anew
     assert not list((tmp_path / "other" / "validation_scenes").glob("*.safetensors"))
+
+
+def test_slot_twin_references_are_saved_and_steer_the_corrections(demo_root: Path, trained: Path,
+                                                                  tmp_path: Path) -> None:
+    prior = json.loads((trained / "config.json").read_text())["prior"]
+    best = train_residual(config_from_flat(TrainConfig, prior=prior, data=str(demo_root / "bimanual"),
+                                           validation_data=str(demo_root / "bimanual"), out=str(tmp_path / "r"),
+                                           steps=2, checkpoint_every=2, demos=2, retrieval=True,
+                                           retrieval_threshold=-1.0, rotation_target="slot_twin"))
+    policy = load_bimanualshift(best, default_text_encoder())
+    config = policy.residual.config
+    assert config.rotation_target == "slot_twin" and len(config.twin_references) == 4 * config.phase_dim
+    plan, _, _, correction, first = _fully_corrected(policy, keyframes=1)
+    for i, decision in enumerate(first):
+        _, quat = decision.step.frame.pose_to_arm(plan[0][i][:3], plan[0][i][3:7])
+        target = compose_rotation(decision.step.prior.quat[0].numpy(), correction.rotation[i])
+        # the corrector's orientation or its half-turn twin, whichever is nearer the arm's keyframe-0 reference
+        chosen = nearest_grasp_twin(quat, config.twin_reference(i, 0))
+        assert abs(abs(float(np.dot(target, chosen))) - 1.0) < 1e-5

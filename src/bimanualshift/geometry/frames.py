@@ -131,6 +131,17 @@ def nearest_grasp_twin(quat_target: np.ndarray, quat_base: np.ndarray) -> np.nda
     return twin.as_quat() if nearer else np.asarray(quat_target, dtype=np.float64)
 
 
+def grasp_twin_mean(quats: np.ndarray, rounds: int = 5) -> np.ndarray:
+    """The mean orientation of grasps given as either half-turn twin (``nearest_grasp_twin``): each is taken as the
+    twin nearer the running mean, starting from the first, and the mean of those is taken again. A set of grasps
+    clustered about one heading, however the demos wrapped each, gives that heading (as one of its twins)."""
+    quats = np.asarray(quats, dtype=np.float64).reshape(-1, 4)
+    mean = quats[0]
+    for _ in range(rounds):
+        mean = Rotation.from_quat(np.stack([nearest_grasp_twin(q, mean) for q in quats])).mean().as_quat()
+    return mean
+
+
 def rotation_difference(quat_target: np.ndarray, quat_base: np.ndarray) -> np.ndarray:
     """Axis-angle r with exp(r) * R_base = R_target (inverse of ``compose_rotation``)."""
     return (Rotation.from_quat(quat_target) * Rotation.from_quat(quat_base).inv()).as_rotvec()

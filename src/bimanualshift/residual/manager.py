@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numpy as np
 import torch
 from torch import nn
 
@@ -11,7 +12,7 @@ from bimanualshift.geometry.torch_rotations import quat_toward
 from bimanualshift.residual.skills import SkillBasis
 
 QUATERNION_SIGNS = ("w_positive", "gripper_down")
-ROTATION_TARGETS = ("expert", "nearest_twin")
+ROTATION_TARGETS = ("expert", "nearest_twin", "slot_twin")
 
 
 @dataclass
@@ -66,14 +67,32 @@ class ResidualConfig:
     start_goal_dim: int = 0
     # The orientation the rotation residual is trained towards, here so that refinement's corrections use the same:
     # "expert" as the demos give it, or "nearest_twin": the expert's or its twin half a turn about the gripper's
-    # approach axis (the same parallel grasp), whichever is nearer the prior's proposal (geometry.frames).
+    # approach axis (the same parallel grasp), whichever is nearer the prior's proposal (geometry.frames), or
+    # "slot_twin": the twin nearer the training demos' mean grasp at the same arm and keyframe slot.
     rotation_target: str = "expert"
+    # "slot_twin"'s mean grasps, one quaternion per (arm, keyframe slot) of the phase one-hot, flattened (arm-major);
+    # taken from the training demos, kept so that refinement's corrections turn towards the same twins.
+    twin_references: tuple[float, ...] = ()
 
     def __post_init__(self) -> None:
         if self.quaternion_sign not in QUATERNION_SIGNS:
             raise ValueError(f"quaternion_sign is one of {', '.join(QUATERNION_SIGNS)}, got {self.quaternion_sign!r}")
         if self.rotation_target not in ROTATION_TARGETS:
             raise ValueError(f"rotation_target is one of {', '.join(ROTATION_TARGETS)}, got {self.rotation_target!r}")
+        if self.rotation_target == "slot_twin" and not self.phase_dim:
+            raise ValueError("rotation_target 'slot_twin' picks each grasp's twin per keyframe slot: it needs the "
+                             "phase one-hot (--phase-slots > 0)")
+        if self.twin_references and len(self.twin_references) != 4 * self.phase_dim:
+            raise ValueError(f"twin_references holds {len(self.twin_references)} numbers; a quaternion per (arm, "
+                             f"keyframe slot) of the phase one-hot is {4 * self.phase_dim}")
+
+    def twin_reference(self, arm: int, slot: int) -> np.ndarray:
+        """``slot_twin``'s mean grasp (x, y, z, w) for an arm and keyframe slot."""
+        if not self.twin_references:
+            raise ValueError("this residual has no twin references: they are set from the training demos before "
+                             "its targets are built (training.residual_trainer.residual_data)")
+        start = 4 * (arm * (self.phase_dim // self.num_arms) + slot)
+        return np.asarray(self.twin_references[start:start + 4], dtype=np.float64)
 
     @property
     def gate_slots(self) -> int:

@@ -137,7 +137,8 @@ class ResidualModelConfig:
     # What the rotation residual is trained towards: "expert" (the demos' orientation) or "nearest_twin" (the
     # expert's or its twin half a turn about the gripper's approach axis, the same parallel grasp, whichever is
     # nearer the prior's proposal: the demos' wrist yaw is wrapped into a half turn, so a grasp at the wrap's edge
-    # comes as either twin at random, and the residual averages the two turns; docs/residual.md).
+    # comes as either twin at random, and the residual averages the two turns; docs/residual.md), or "slot_twin"
+    # (the twin nearer the training demos' mean grasp at the same arm and keyframe slot).
     rotation_target: str = "expert"
     # What the frozen prior is asked: "" the episode's own instruction (the paper), "auto" the instruction of the
     # prior's pretraining suite whose proposals lie closest to the training demos' keyframes when it clearly beats

@@ -39,6 +39,7 @@ from bimanualshift.encoders.text import TextEncoder
 from bimanualshift.geometry.frames import gripper_angle_deg
 from bimanualshift.memory.bank import MemoryBank, MemoryEntry
 from bimanualshift.methods.bimanualshift import MEMORY_FILE, BimanualShift, load_bimanualshift, save_residual
+from bimanualshift.residual.manager import ResidualConfig, arm_and_slot
 from bimanualshift.residual.output_gate import choose_output_scale, reset_output_scale
 from bimanualshift.rollout.loop import rollout
 from bimanualshift.sim.env import ManipulationEnv
@@ -97,6 +98,14 @@ def _trajectory_row(decisions: list, executed: np.ndarray) -> np.ndarray:
     return np.asarray(rows, np.float32)
 
 
+def twin_reference(config: ResidualConfig, inputs: torch.Tensor) -> np.ndarray | None:
+    """The "slot_twin" reference grasp of a Manager input row's arm and keyframe slot (None for other targets)."""
+    if config.rotation_target != "slot_twin":
+        return None
+    arm, slot = arm_and_slot(config, inputs.reshape(1, -1))
+    return config.twin_reference(int(arm[0]), int(slot[0]))
+
+
 def run_policy(env: ManipulationEnv, policy: BimanualShift, seed: int, max_keyframes: int,
                corrector: list[np.ndarray] | None = None, tolerance_m: float = 0.03, tolerance_deg: float = 20.0,
                ) -> tuple[bool, np.ndarray, np.ndarray | None, Correction]:
@@ -117,7 +126,8 @@ def run_policy(env: ManipulationEnv, policy: BimanualShift, seed: int, max_keyfr
                 base = d.step.prior  # Eq. 10: the target is relative to the frozen prior's action
                 correction.inputs.append(d.inputs)
                 correction.translation.append(pos - base.position[0].numpy())
-                correction.rotation.append(rotation_target(policy.residual.config, quat, base.quat[0].numpy()))
+                correction.rotation.append(rotation_target(policy.residual.config, quat, base.quat[0].numpy(),
+                                                           twin_reference(policy.residual.config, d.inputs)))
                 correction.gripper.append(float(expert[7] > 0.5))
                 correction.hold.append(float(k > 0 and repeats(expert, corrector[k - 1][i])))
                 if policy.residual.config.action_space:  # Eq. 10 in the prior's own action space

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import json
 import time
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -20,7 +20,12 @@ from scipy.spatial.transform import Rotation
 
 from bimanualshift.data.episode import list_episodes
 from bimanualshift.encoders.text import TextEncoder, default_text_encoder, make_text_encoder
-from bimanualshift.geometry.frames import nearest_grasp_twin, quat_to_euler_bins, rotation_difference
+from bimanualshift.geometry.frames import (
+    grasp_twin_mean,
+    nearest_grasp_twin,
+    quat_to_euler_bins,
+    rotation_difference,
+)
 from bimanualshift.geometry.voxels import VoxelGrid
 from bimanualshift.memory.bank import MemoryBank, MemoryEntry
 from bimanualshift.memory.reference import REFERENCE_DIM, ProgressAlignment, episode_key, reference_vector
@@ -81,6 +86,8 @@ class ResidualData:
     prior_rotation: torch.Tensor | None = None
     target_cell: torch.Tensor | None = None
     target_bins: torch.Tensor | None = None
+    # "slot_twin"'s references the rotation targets were taken towards (``ResidualConfig.twin_references``)
+    twin_references: tuple[float, ...] = ()
 
     def __len__(self) -> int:
         return len(self.inputs)
@@ -120,12 +127,43 @@ def repeats(action: np.ndarray, previous: np.ndarray) -> bool:
     return bool(near and turned < HOLD_TOLERANCE_RAD and (action[7] > 0.5) == (previous[7] > 0.5))
 
 
-def rotation_target(config: ResidualConfig, quat_target: np.ndarray, quat_base: np.ndarray) -> np.ndarray:
+def rotation_target(config: ResidualConfig, quat_target: np.ndarray, quat_base: np.ndarray,
+                    reference: np.ndarray | None = None) -> np.ndarray:
     """The rotation residual's target (axis-angle r with exp(r) * R_prior = R_target) under the config's
-    ``rotation_target``: towards the expert's orientation, or its grasp twin nearer the prior's proposal."""
+    ``rotation_target``: towards the expert's orientation, its grasp twin nearer the prior's proposal
+    ("nearest_twin"), or its twin nearer ``reference``, the demos' mean grasp at this arm and keyframe slot
+    ("slot_twin": ``ResidualConfig.twin_reference``)."""
     if config.rotation_target == "nearest_twin":
         quat_target = nearest_grasp_twin(quat_target, quat_base)
+    elif config.rotation_target == "slot_twin":
+        if reference is None:
+            raise ValueError("rotation_target 'slot_twin' needs the arm and keyframe slot's twin reference")
+        quat_target = nearest_grasp_twin(quat_target, reference)
     return rotation_difference(quat_target, quat_base)
+
+
+def slot_twin_references(config: ResidualConfig, arm_index: np.ndarray, keyframe: np.ndarray,
+                         quats: np.ndarray) -> tuple[float, ...]:
+    """``ResidualConfig.twin_references`` from training samples (arm-frame expert quaternions): per arm and
+    keyframe slot of the phase one-hot, the demos' mean grasp modulo the half turn (``grasp_twin_mean``), each
+    slot's taken as the twin nearer the slot before it so that the arm's wrist does not spin half a turn between
+    keyframes. A slot no demo reaches repeats the slot before it.
+
+    Why: the demos wrap wrist yaw into a half turn, so a grasp near the wrap's edge (sweep's dustpan handle) comes
+    as either twin at random by scene, and the residual, asked to turn one way in half the scenes and the other
+    way in the rest, learns the average; every target taken towards one mean asks the same turn."""
+    slots = config.phase_dim // config.num_arms
+    slot = np.clip(keyframe, 0, slots - 1)
+    out = []
+    for arm in range(config.num_arms):
+        previous = None
+        for s in range(slots):
+            chosen = quats[(arm_index == arm) & (slot == s)]
+            if len(chosen):
+                mean = grasp_twin_mean(chosen)
+                previous = mean if previous is None else nearest_grasp_twin(mean, previous)
+            out.append(np.array([0.0, 0.0, 0.0, 1.0]) if previous is None else previous)
+    return tuple(float(x) for x in np.concatenate(out))
 
 
 def residual_data(config: ResidualConfig, paths: list[Path], prior_step: FrozenPriorStep, text_encoder: TextEncoder,
@@ -164,6 +202,14 @@ def residual_data(config: ResidualConfig, paths: list[Path], prior_step: FrozenP
     scene = torch.as_tensor(samples.points if clouds else samples.voxels)
     target_pos, target_quat = torch.as_tensor(samples.action_pos), torch.as_tensor(samples.action_quat)
     two_arms = bool(samples.other_proprio.any())
+    twin_reference = None  # (N, 4) with "slot_twin": each sample's arm and keyframe slot's mean grasp
+    if config.rotation_target == "slot_twin":
+        if not config.twin_references:  # training data: the references come from these very demos
+            config = replace(config, twin_references=slot_twin_references(
+                config, arm_index.numpy(), samples.keyframe, samples.action_quat))
+        slots = np.clip(samples.keyframe, 0, config.phase_dim // config.num_arms - 1)
+        twin_reference = torch.as_tensor(np.stack([config.twin_reference(int(a), int(s))
+                                                   for a, s in zip(arm_index, slots)]))
     parts = []
     for copy in range(1 + augment_copies):
         if copy == 0:
@@ -209,7 +255,11 @@ def residual_data(config: ResidualConfig, paths: list[Path], prior_step: FrozenP
                                     torch.as_tensor(samples.keyframe), reference, goal, proposal_t, start_goal)
         translation = moved_pos - base_t[:, :3]
         base_quat = base_t[:, 3:7].numpy()
-        rotation = torch.as_tensor(np.stack([rotation_target(config, t, b) for t, b in zip(quat, base_quat)]),
+        # a reference grasp turns with the scene, as the expert's does
+        reference_quat = (transform_quats(twin_reference, yaw).numpy() if twin_reference is not None
+                          else [None] * n)
+        rotation = torch.as_tensor(np.stack([rotation_target(config, t, b, r)
+                                             for t, b, r in zip(quat, base_quat, reference_quat)]),
                                    dtype=torch.float32)
         action_targets = {name: torch.cat([part[name] for part in action_parts]) for name in ACTION_SPACE_FIELDS
                           } if action_parts else {}
@@ -217,7 +267,7 @@ def residual_data(config: ResidualConfig, paths: list[Path], prior_step: FrozenP
     fields = ("inputs", "translation", "rotation", *TARGET_FIELDS)
     merged = {f: (None if getattr(parts[0], f) is None else torch.cat([getattr(p, f) for p in parts]))
               for f in fields}
-    return ResidualData(**merged, memory=memory)
+    return ResidualData(**merged, memory=memory, twin_references=config.twin_references)
 
 
 def first_rows(samples: ArmSamples) -> np.ndarray:
@@ -544,6 +594,7 @@ def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Pat
                           build_memory=model.retrieval_threshold if model.retrieval else None, task=data.task,
                           earlier_memory=earlier_memory)
     memory = train.memory
+    rcfg = replace(rcfg, twin_references=train.twin_references)  # "slot_twin": the training demos' mean grasps
     val_paths = list_episodes(cfg.dataset.validation_data, cfg.dataset.task)
     val = residual_data(rcfg, val_paths, prior_step, text_encoder, "prior outputs (val)",
                         memory=memory) if val_paths else train
