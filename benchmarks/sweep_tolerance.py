@@ -51,12 +51,8 @@ class StrokeChange(NamedTuple):
     pan_turn_rad: float = 0.0  # the dustpan arm's every keyframe turned about the vertical
 
 
-def change_stroke(keyframes: list[Keyframe], change: StrokeChange) -> list[Keyframe]:
-    """The expert's keyframes with the brush arm's stroke changed (the brush arm: the one whose keyframes 4 and 6
-    lie farthest apart)."""
-    spans = {arm: np.linalg.norm(keyframes[ABOVE][arm].position[:2] - keyframes[END][arm].position[:2])
-             for arm in keyframes[0]}
-    arm = max(spans, key=spans.get)
+def change_stroke(keyframes: list[Keyframe], change: StrokeChange, arm: str) -> list[Keyframe]:
+    """The expert's keyframes with the brush ``arm``'s stroke changed (the task's roles name it)."""
     stroke = keyframes[END][arm].position[:2] - keyframes[ABOVE][arm].position[:2]
     along = stroke / np.linalg.norm(stroke)
     across = np.array([-along[1], along[0]])
@@ -76,7 +72,8 @@ def change_stroke(keyframes: list[Keyframe], change: StrokeChange) -> list[Keyfr
 
 def run(env: ManipulationEnv, seed: int, change: StrokeChange) -> bool:
     env.reset(seed=seed, options={"render": False})
-    for keyframe in change_stroke(env.expert_keyframes(), change):
+    _, brush_arm = env.task.roles(env.sim)
+    for keyframe in change_stroke(env.expert_keyframes(), change, brush_arm):
         env.step(env.action_from_keyframe(keyframe), render=False)
     return env.success()
 

@@ -34,7 +34,7 @@ def _heading(quat: np.ndarray) -> float:
 
 def test_only_the_brush_arms_stroke_changes() -> None:
     before = _keyframes()
-    after = sweep_tolerance.change_stroke(before, sweep_tolerance.StrokeChange(0.02, 0.3, 0.015))
+    after = sweep_tolerance.change_stroke(before, sweep_tolerance.StrokeChange(0.02, 0.3, 0.015), "right")
     for k in range(8):
         np.testing.assert_array_equal(after[k]["left"].position, before[k]["left"].position)
         assert abs(np.dot(after[k]["left"].quat, before[k]["left"].quat)) == pytest.approx(1.0)
@@ -54,7 +54,7 @@ def test_only_the_brush_arms_stroke_changes() -> None:
 
 def test_no_change_keeps_the_expert() -> None:
     before = _keyframes()
-    after = sweep_tolerance.change_stroke(before, sweep_tolerance.StrokeChange(0.0, 0.0, 0.0))
+    after = sweep_tolerance.change_stroke(before, sweep_tolerance.StrokeChange(0.0, 0.0, 0.0), "right")
     for k in range(8):
         np.testing.assert_allclose(after[k]["right"].position, before[k]["right"].position)
         assert abs(np.dot(after[k]["right"].quat, before[k]["right"].quat)) == pytest.approx(1.0)
@@ -62,9 +62,26 @@ def test_no_change_keeps_the_expert() -> None:
 
 def test_the_dustpan_grasp_turns_in_place() -> None:
     before = _keyframes()
-    after = sweep_tolerance.change_stroke(before, sweep_tolerance.StrokeChange(0.0, 0.0, 0.0, pan_turn_rad=-0.5))
+    after = sweep_tolerance.change_stroke(before, sweep_tolerance.StrokeChange(0.0, 0.0, 0.0, pan_turn_rad=-0.5),
+                                         "right")
     for k in range(8):
         np.testing.assert_array_equal(after[k]["left"].position, before[k]["left"].position)
         assert _heading(after[k]["left"].quat) - _heading(before[k]["left"].quat) == pytest.approx(-0.5)
         np.testing.assert_allclose(after[k]["right"].position, before[k]["right"].position)
         assert abs(np.dot(after[k]["right"].quat, before[k]["right"].quat)) == pytest.approx(1.0)
+
+
+def test_the_brush_arm_is_the_tasks_own() -> None:
+    from bimanualshift.sim.env import ManipulationEnv
+
+    env = ManipulationEnv("sweep_to_dustpan", image_size=64)
+    try:  # the brush arm's keyframes 4 and 6 (the stroke) lie farther apart than the pan arm's
+        for seed in (100000, 100001):
+            env.reset(seed=seed, options={"render": False})
+            keyframes = env.expert_keyframes()
+            pan_arm, brush_arm = env.task.roles(env.sim)
+            span = {a: np.linalg.norm(keyframes[4][a].position[:2] - keyframes[6][a].position[:2])
+                    for a in (pan_arm, brush_arm)}
+            assert span[brush_arm] > span[pan_arm] + 0.05
+    finally:
+        env.close()
