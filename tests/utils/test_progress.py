@@ -39,3 +39,22 @@ def test_a_logged_bar_redraws_far_less_than_tqdms_default() -> None:
     logged = _redraws({})
     default = _redraws({"TQDM_MININTERVAL": "0.1"})
     assert logged <= 3 < default
+
+
+# the training loop's bar, whose loss is updated at every step: 300 steps of a tiny model
+TRAINING = ("import sys, torch\n"
+            "from bimanualshift.utils.progress import slow_bars_in_logs\n"
+            "slow_bars_in_logs(is_terminal=False)\n"
+            "from bimanualshift.training.loop import run_training\n"
+            "model = torch.nn.Linear(2, 1)\n"
+            "optimizer = torch.optim.SGD(model.parameters(), lr=0.01)\n"
+            "def step_fn(step, gen):\n"
+            "    return {'total': model(torch.randn(4, 2, generator=gen)).pow(2).mean()}\n"
+            "run_training(sys.argv[1], model, optimizer, 300, step_fn, seed=0, checkpoint_every=300)\n")
+
+
+def test_a_training_bars_loss_does_not_force_a_redraw_at_every_step(tmp_path) -> None:
+    env = {k: v for k, v in os.environ.items() if not k.startswith("TQDM_")}
+    done = subprocess.run([sys.executable, "-c", TRAINING, str(tmp_path)], capture_output=True, env=env,
+                          timeout=120, check=True)
+    assert done.stderr.count(b"\r") <= 3  # was one redraw per step: the loss's postfix refreshed the bar

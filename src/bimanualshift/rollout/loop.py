@@ -95,5 +95,5 @@ def evaluate(env: ManipulationEnv, policy: Policy, seeds: list[int], max_keyfram
     for i, seed in enumerate(bar):
         budget = episode_budget(env, seed, max_keyframes)
         records.append(rollout(env, policy, seed, budget, record_camera if i < record_episodes else None))
-        bar.set_postfix(success=f"{np.mean([r.success for r in records]):.2f}")
+        bar.set_postfix(success=f"{np.mean([r.success for r in records]):.2f}", refresh=False)
     return records

@@ -93,7 +93,7 @@ def run_training(run_dir: str | Path, model: nn.Module, optimizer: torch.optim.O
         for k, v in logged.items():
             sums[k] = sums.get(k, 0.0) + v
         counted += 1
-        bar.set_postfix(loss=round(logged["total"], 4))
+        bar.set_postfix(loss=round(logged["total"], 4), refresh=False)  # shown at the next timed redraw
         done = step + 1
         at_checkpoint = done % checkpoint_every == 0 or done == steps
         if at_checkpoint:
