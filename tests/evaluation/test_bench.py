@@ -135,7 +135,8 @@ def test_bench_runs_resumes_and_reports(demo_root: Path, tmp_path: Path) -> None
     # A third episode asked for while the runs behind the first two are gone: a new model would finish another
     # model's rows, so the benchmark stops and says how to go on.
     with pytest.raises(ValueError, match=r"2 test episodes of bimanualshift on push_two_buttons are recorded.*"
-                                         r"--rerun bimanualshift"):
+                                         r"--rerun push_two_buttons/bimanualshift \(this task\) or --rerun "
+                                         r"bimanualshift"):
         run_bench(replace(cfg, episodes=3), command="test")
     assert sorted(map(json.dumps, read_episodes(log))) == sorted(map(json.dumps, first))
     # --episodes 0 trains every method and rolls nothing out.

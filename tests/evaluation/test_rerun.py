@@ -84,3 +84,43 @@ def test_a_variant_gives_up_its_own_refinement_only_and_a_shared_run_needs_every
                            tmp_path / "runs", ["push_two_buttons"], COMMIT)
     assert [r["archive"] is not None for r in report] == [True, True]
     assert read_records(out / "episodes.jsonl") == []
+
+
+def test_a_task_rerun_moves_that_tasks_records_and_run_only(tmp_path: Path) -> None:
+    out, runs = tmp_path / "out", tmp_path / "runs"
+    episodes = _results(out, runs, ["peract_lf"])
+    other = [{**e, "task": "lift_ball"} for e in episodes]  # the method's finished task stays as it is
+    with (out / "episodes.jsonl").open("a") as f:
+        f.write("".join(json.dumps(e) + "\n" for e in other))
+    summary = json.loads((out / "summary.json").read_text())
+    summary["training"]["lift_ball/peract_lf"] = {"best": 2}
+    (out / "summary.json").write_text(json.dumps(summary))
+    (runs / "lift_ball" / "peract_lf" / "best").mkdir(parents=True)
+    (out / "videos" / "lift_ball_peract_lf_1.mp4").write_bytes(b"video")
+    report = supersede_all(["push_two_buttons/peract_lf"], ["peract_lf"], out, runs,
+                           ["push_two_buttons", "lift_ball"], COMMIT)
+    archive = out / "superseded" / f"peract_lf-push_two_buttons-{COMMIT[:12]}"
+    assert report == [{"method": "push_two_buttons/peract_lf", "archive": str(archive)}]
+    assert read_records(out / "episodes.jsonl") == other
+    assert read_records(archive / "episodes.jsonl.gz") == episodes
+    assert json.loads((archive / "records.json").read_text())["training"] == {"push_two_buttons/peract_lf": {
+        "best": 1}}
+    assert [p.name for p in (out / "videos").iterdir()] == ["lift_ball_peract_lf_1.mp4"]
+    assert not (runs / "push_two_buttons" / "peract_lf").exists()
+    assert (runs / "lift_ball" / "peract_lf" / "best").is_dir()
+    # a study's other half, without that task, leaves everything where it is
+    assert supersede_all(["push_two_buttons/peract_lf"], ["peract_lf"], out, runs, ["lift_ball"], "e" * 40) == []
+    assert read_records(out / "episodes.jsonl") == other
+
+
+def test_a_task_rerun_names_a_registered_task_and_every_sharer_on_it(tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    _results(out, tmp_path / "runs", ["bimanualshift", "no_refinement"])
+    with pytest.raises(ValueError, match="push_two_button/peract_lf: no such task"):
+        check_rerun(["push_two_button/peract_lf"], ["peract_lf"], out)
+    with pytest.raises(ValueError, match="add push_two_buttons/no_refinement to --rerun"):
+        check_rerun(["push_two_buttons/bimanualshift"], ["bimanualshift", "no_refinement"], out)
+    # the sharer recorded on another task only is not in the way
+    check_rerun(["lift_ball/bimanualshift"], ["bimanualshift", "no_refinement"], out)
+    check_rerun(["push_two_buttons/bimanualshift", "push_two_buttons/no_refinement"],
+                ["bimanualshift", "no_refinement"], out)

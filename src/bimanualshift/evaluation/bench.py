@@ -66,7 +66,8 @@ class BenchConfig:
     # after the demos' own, the expert correcting their failures, before they are evaluated
     refine_episodes: int = REFINE_EPISODES
     # methods to run again from scratch after a change to them: their recorded episodes and training runs move to
-    # superseded/ folders named by the commit (evaluation/rerun.py); repeating the command resumes the re-run
+    # superseded/ folders named by the commit (evaluation/rerun.py); repeating the command resumes the re-run.
+    # TASK/METHOD re-runs that one task of the method.
     rerun: list[str] = field(default_factory=list)
 
 
@@ -158,7 +159,8 @@ def check_model_behind_episodes(request: TrainRequest, method: str, recorded: in
     if recorded and not (run / REQUEST_FILE).is_file():
         raise ValueError(f"{recorded} test episodes of {method} on {request.task} are recorded, but the training "
                          f"run they came from ({run}) is gone: a new model would finish another model's rows. "
-                         f"Restore that folder, or pass --rerun {method} to evaluate every episode with a new model "
+                         f"Restore that folder, or pass --rerun {request.task}/{method} (this task) or "
+                         f"--rerun {method} (every task) to evaluate its episodes with a new model "
                          "(the recorded ones are kept under superseded/)")
 
 
