@@ -492,7 +492,9 @@ def load_earlier(init_from: str, rcfg: ResidualConfig, retrieval: bool
     """An earlier run's residual weights (checked against this run's shapes) and, with retrieval, its bank."""
     checkpoint = earlier_checkpoint(init_from)
     earlier = read_json_file(checkpoint / "config.json")
-    if earlier.get("residual") != asdict(rcfg):
+    # "slot_twin"'s mean grasps come from each task's own demos, so they may differ (and JSON holds them as a list)
+    ours = {**asdict(rcfg), "twin_references": None}
+    if not isinstance(earlier.get("residual"), dict) or {**earlier["residual"], "twin_references": None} != ours:
         raise ValueError(f"init_from={init_from!r} has residual config {earlier.get('residual')}, this run needs "
                          f"{asdict(rcfg)}; continue from a run with the same prior, text encoder and switches")
     memory = MemoryBank.load(checkpoint / MEMORY_FILE) if retrieval and (checkpoint / MEMORY_FILE).is_file() else None
