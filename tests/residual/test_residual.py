@@ -88,10 +88,16 @@ def test_input_normalisation_standardises_and_round_trips_through_the_state_dict
 def test_phase_one_hot_gives_each_arm_its_slots_and_clamps_late_keyframes() -> None:
     from bimanualshift.residual.manager import phase_one_hot
 
-    out = phase_one_hot(torch.tensor([0, 1, 7]), torch.tensor([0, 1, 0]), 4, 2)
+    four = ResidualConfig(phase_dim=4)
+    out = phase_one_hot(four, torch.tensor([0, 1, 7]), torch.tensor([0, 1, 0]))
     torch.testing.assert_close(out, torch.tensor([[1.0, 0, 0, 0], [0, 0, 0, 1], [0, 1, 0, 0]]))
+    # the numpy and torch paths of the slot clamp agree, and the one-hot's arm and slot read back
+    np.testing.assert_array_equal(four.phase_slot(np.array([0, 1, 7])), [0, 1, 1])
+    from bimanualshift.residual.manager import arm_and_slot
+    arm, slot = arm_and_slot(four, torch.cat([torch.zeros(3, four.layout()["phase"].start), out], dim=1))
+    assert arm.tolist() == [0, 1, 0] and slot.tolist() == [0, 1, 1]
     with pytest.raises(ValueError, match="does not split"):
-        phase_one_hot(torch.tensor([0]), torch.tensor([0]), 5, 2)
+        phase_one_hot(ResidualConfig(phase_dim=5), torch.tensor([0]), torch.tensor([0]))
     cfg = ResidualConfig(feature_dim=5, text_dim=8, hidden=16, goal_dim=10, phase_dim=4, geometric_skip=True,
                          read_prior_features=False)
     policy = ResidualPolicy(cfg, SkillBasis.from_verbs(FakeEncoder()))

@@ -86,18 +86,28 @@ class ResidualConfig:
             raise ValueError(f"twin_references holds {len(self.twin_references)} numbers; a quaternion per (arm, "
                              f"keyframe slot) of the phase one-hot is {4 * self.phase_dim}")
 
+    @property
+    def slots_per_arm(self) -> int:
+        """Keyframe slots each arm has in the phase one-hot (0 without one)."""
+        return self.phase_dim // self.num_arms
+
+    def phase_slot(self, keyframe: np.ndarray | torch.Tensor) -> np.ndarray | torch.Tensor:
+        """Each keyframe index's slot in its arm's block: keyframes past the end share the last slot."""
+        last = self.slots_per_arm - 1
+        return keyframe.long().clamp(0, last) if isinstance(keyframe, torch.Tensor) else np.clip(keyframe, 0, last)
+
     def twin_reference(self, arm: int, slot: int) -> np.ndarray:
         """``slot_twin``'s mean grasp (x, y, z, w) for an arm and keyframe slot."""
         if not self.twin_references:
             raise ValueError("this residual has no twin references: they are set from the training demos before "
                              "its targets are built (training.residual_trainer.residual_data)")
-        start = 4 * (arm * (self.phase_dim // self.num_arms) + slot)
+        start = 4 * (arm * self.slots_per_arm + slot)
         return np.asarray(self.twin_references[start:start + 4], dtype=np.float64)
 
     @property
     def gate_slots(self) -> int:
         """Rows of ``output_scale``: one per keyframe slot with ``gate_per_keyframe``, else 1."""
-        return self.phase_dim // self.num_arms if self.gate_per_keyframe else 1
+        return self.slots_per_arm if self.gate_per_keyframe else 1
 
     @property
     def lattice_cells(self) -> int:
@@ -233,8 +243,7 @@ def arm_and_slot(config: ResidualConfig, inputs: torch.Tensor) -> tuple[torch.Te
     """(N,) each raw Manager input row's arm index and (N,) its keyframe slot, read from its (arm, keyframe) phase
     one-hot (arm-major: one block of slots per arm)."""
     phase = inputs[:, config.layout()["phase"]].argmax(-1)
-    per_arm = config.phase_dim // config.num_arms
-    return phase // per_arm, phase % per_arm
+    return phase // config.slots_per_arm, phase % config.slots_per_arm
 
 
 def action_lattice(config: ResidualConfig) -> torch.Tensor:
@@ -288,7 +297,7 @@ def manager_input_rows(config: ResidualConfig, features: torch.Tensor, proprio: 
         proprio, other_proprio, base_action = (_quaternion_toward_gripper_down(x)
                                                for x in (proprio, other_proprio, base_action))
         reference = None if reference is None else _quaternion_toward_gripper_down(reference)
-    phase = phase_one_hot(keyframe, arm_index, config.phase_dim, config.num_arms) if config.phase_dim else None
+    phase = phase_one_hot(config, keyframe, arm_index) if config.phase_dim else None
     return manager_inputs(features, proprio, other_proprio, text, base_action, arm_index, config.num_arms,
                           reference if config.reference_dim else None, goal if config.goal_dim else None, phase,
                           proposal if config.proposal_dim else None,
@@ -300,11 +309,11 @@ def _quaternion_toward_gripper_down(rows: torch.Tensor) -> torch.Tensor:
     return torch.cat([rows[..., :3], quat_toward(rows[..., 3:7]), rows[..., 7:]], dim=-1)
 
 
-def phase_one_hot(keyframe: torch.Tensor, arm_index: torch.Tensor, width: int, num_arms: int) -> torch.Tensor:
-    """(N, width) the (arm, keyframe index) pair as one one-hot over ``num_arms`` blocks of ``width // num_arms``
-    slots: each arm's keyframes get their own slots. Keyframes past the end share their arm's last slot."""
-    slots = width // num_arms
-    if slots < 1 or slots * num_arms != width:
-        raise ValueError(f"a phase one-hot of width {width} does not split into {num_arms} arms' blocks")
-    index = arm_index.long() * slots + keyframe.long().clamp(0, slots - 1)
+def phase_one_hot(config: ResidualConfig, keyframe: torch.Tensor, arm_index: torch.Tensor) -> torch.Tensor:
+    """(N, phase_dim) the (arm, keyframe index) pair as one one-hot over ``num_arms`` blocks of
+    ``slots_per_arm`` slots: each arm's keyframes get their own slots (``phase_slot``)."""
+    slots, width = config.slots_per_arm, config.phase_dim
+    if slots < 1 or slots * config.num_arms != width:
+        raise ValueError(f"a phase one-hot of width {width} does not split into {config.num_arms} arms' blocks")
+    index = arm_index.long() * slots + config.phase_slot(keyframe)
     return nn.functional.one_hot(index, width).float()

@@ -152,12 +152,11 @@ def slot_twin_references(config: ResidualConfig, arm_index: np.ndarray, keyframe
     Why: the demos wrap wrist yaw into a half turn, so a grasp near the wrap's edge (sweep's dustpan handle) comes
     as either twin at random by scene, and the residual, asked to turn one way in half the scenes and the other
     way in the rest, learns the average; every target taken towards one mean asks the same turn."""
-    slots = config.phase_dim // config.num_arms
-    slot = np.clip(keyframe, 0, slots - 1)
+    slot = config.phase_slot(keyframe)
     out = []
     for arm in range(config.num_arms):
         previous = None
-        for s in range(slots):
+        for s in range(config.slots_per_arm):
             chosen = quats[(arm_index == arm) & (slot == s)]
             if len(chosen):
                 mean = grasp_twin_mean(chosen)
@@ -207,7 +206,7 @@ def residual_data(config: ResidualConfig, paths: list[Path], prior_step: FrozenP
         if not config.twin_references:  # training data: the references come from these very demos
             config = replace(config, twin_references=slot_twin_references(
                 config, arm_index.numpy(), samples.keyframe, samples.action_quat))
-        slots = np.clip(samples.keyframe, 0, config.phase_dim // config.num_arms - 1)
+        slots = config.phase_slot(samples.keyframe)
         twin_reference = torch.as_tensor(np.stack([config.twin_reference(int(a), int(s))
                                                    for a, s in zip(arm_index, slots)]))
     parts = []
