@@ -100,6 +100,28 @@ def test_index_lists_every_result_file_including_study_runs(tmp_path: Path) -> N
     assert render_readme(tmp_path / "README.md", tmp_path) == ["few_shot/demos_5", "speed"]  # blocks stay live
 
 
+def test_index_marks_a_partial_summary(tmp_path: Path) -> None:
+    from bimanualshift.evaluation.readme import render_index, unsummarised_pairs
+
+    envelope = {"command": "c", "commit": "abcdef1234567", "created": "t", "machine": "m", "seeds": {"test": [1]},
+                "wall_time_s": 60.0, "notes": "n", "bench": True}
+    half = tmp_path / "table1" / "complex_tasks"
+    half.mkdir(parents=True)
+    episodes = [{"task": t, "method": m, "seed": 1, "success": True} for t in ("a", "b") for m in ("x", "y")]
+    (half / "episodes.jsonl").write_text("".join(json.dumps(e) + "\n" for e in episodes))
+    row = {"task": "a", "method": "x", "success": 0.5, "ci95": [0.1, 0.9]}
+    (half / "summary.json").write_text(json.dumps({**envelope, "rows": [row]}))  # the last run covered a/x only
+    (tmp_path / "table1" / "summary.json").write_text(json.dumps({**envelope, "rows": [row]}))  # the study's
+    assert unsummarised_pairs(half / "summary.json", {"rows": [row]}) == [("a", "y"), ("b", "x"), ("b", "y")]
+    index = render_index(tmp_path).read_text()
+    assert index.count("**Partial**: 3 task/method pairs") == 2 and "a/y, b/x, b/y" in index
+    rows = [{**row, "task": t, "method": m} for t in ("a", "b") for m in ("x", "y")]
+    (half / "summary.json").write_text(json.dumps({**envelope, "rows": rows}))
+    (tmp_path / "table1" / "summary.json").write_text(json.dumps({**envelope, "rows": rows}))
+    index = render_index(tmp_path).read_text()
+    assert "Partial" not in index and "<!-- results:table1/complex_tasks -->" in index
+
+
 def test_generic_table_gives_every_rows_fields_a_column() -> None:
     from bimanualshift.evaluation.tables import generic_table
 

@@ -12,6 +12,7 @@ from pathlib import Path
 
 from bimanualshift.evaluation.tables import table_for
 from bimanualshift.utils.io import atomic_write_text
+from bimanualshift.utils.jsonl import read_records
 
 BLOCK = re.compile(r"(<!-- results:(?P<name>[\w/.-]+) -->\n)(?P<body>.*?)(<!-- /results:(?P=name) -->)", re.S)
 
@@ -57,9 +58,24 @@ def result_names(results_dir: str | Path) -> list[str]:
     return sorted(set(names))
 
 
+def unsummarised_pairs(summary: Path, result: dict) -> list[tuple[str, str]]:
+    """(task, method) pairs with episodes recorded beside ``summary`` (its folder's ``episodes.jsonl`` and, for a
+    study, its runs' folders) but no row in it: the summary of a run that covered part of what its folder holds
+    (a study run one task or one group of methods at a time); a study's ``--recorded-only`` rewrites it whole."""
+    folder = summary.parent
+    logs = [folder / "episodes.jsonl"] + [child / "episodes.jsonl" for child in sorted(folder.iterdir())
+                                         if child.is_dir() and (child / "summary.json").is_file()]
+    recorded = {(e["task"], e["method"]) for log in logs if log.is_file() for e in read_records(log)
+                if "task" in e and "method" in e}
+    rows = {(r.get("task"), r.get("method")) for r in result.get("rows", []) if isinstance(r, dict)}
+    return sorted(recorded - rows)
+
+
 def render_index(results_dir: str | Path = "results") -> Path:
     """``results/README.md``: every result file's table with the command, seeds, commit and wall time that
-    produced it, regenerated from the files (each table is a results block, so `report` keeps it current)."""
+    produced it, regenerated from the files (each table is a results block, so `report` keeps it current). A
+    summary that leaves out episodes recorded beside it (``unsummarised_pairs``) is marked partial above its table:
+    a half-built table read as a finished one would mislead."""
     results_dir = Path(results_dir)
     parts = ["# Results", "",
              "Every table below is generated from the result file it names by `bimanualshift report --index`;",
@@ -70,9 +86,15 @@ def render_index(results_dir: str | Path = "results") -> Path:
             result = json.loads(path.read_text())
             table = table_for(result)
         except (KeyError, ValueError, IndexError, TypeError) as exc:
-            table = f"(not a results-envelope file: {exc!r})\n"
-        parts += [f"## {name}", "", f"`{path.relative_to(results_dir)}`", "",
-                  f"<!-- results:{name} -->", table.rstrip("\n"), f"<!-- /results:{name} -->", ""]
+            result, table = {}, f"(not a results-envelope file: {exc!r})\n"
+        missing = unsummarised_pairs(path, result) if path.name == "summary.json" else []
+        parts += [f"## {name}", "", f"`{path.relative_to(results_dir)}`", ""]
+        if missing:
+            shown = ", ".join(f"{t}/{m}" for t, m in missing[:4]) + (", ..." if len(missing) > 4 else "")
+            parts += [f"**Partial**: {len(missing)} task/method pairs recorded here are not in this summary "
+                      f"({shown}). A study's `--recorded-only` (or a bench over every method recorded here) "
+                      "summarises them all.", ""]
+        parts += [f"<!-- results:{name} -->", table.rstrip("\n"), f"<!-- /results:{name} -->", ""]
     index = results_dir / "README.md"
     atomic_write_text(index, "\n".join(parts))
     return index
