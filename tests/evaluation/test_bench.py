@@ -93,6 +93,7 @@ def test_bench_runs_resumes_and_reports(demo_root: Path, tmp_path: Path) -> None
         steps = logged[(e["method"], e["seed"])]
         assert len(steps) == e["keyframes"] and np.asarray(steps[0]["executed"]).shape == (2, 9)
         assert np.asarray(steps[0]["expert"]).shape == (2, 9) and steps[-1]["stages_done"] == e["stages_done"]
+        assert np.asarray(steps[0]["reached"]).shape == (2, 8)  # the poses the arms ended at
         arms = steps[0]["policy"]["arms"]
         assert [a["arm"] for a in arms] == ["left", "right"] and len(arms[0]["prior"]) == 7
         if e["method"] == "bimanualshift":

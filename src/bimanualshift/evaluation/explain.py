@@ -1,7 +1,8 @@
 """Where each method's failures happen, from a bench folder's per-keyframe log (`bimanualshift explain`).
 
 Every evaluated episode's keyframes are logged with the scripted expert's action at the same index on the same
-seed (``rollout.keyframe_row``). A failed episode is summarised by the stage it reached and its first divergence:
+seed and the poses the arms reached (``rollout.keyframe_row``). A failed episode is summarised by the stage it
+reached and its first divergence:
 the first keyframe at which an arm's executed action strays from the expert's (the refinement's tolerances:
 3 cm, 20 degrees, or the other gripper state; as there, a gripper turned a half turn about its approach axis
 counts as the same grasp), and which arm it was. Where the expert leads with one arm, an
@@ -116,22 +117,26 @@ def first_keyframe_summary(logs: list[list[dict[str, Any]]]) -> dict[str, float]
     return {name: round(float(np.median(v)), 1) for name, v in values.items()}
 
 
-def keyframe_profile(logs: list[list[dict[str, Any]]], arms: tuple[str, ...] = ARM_NAMES_BIMANUAL
-                     ) -> dict[str, list[list[float] | None]]:
+def keyframe_profile(logs: list[list[dict[str, Any]]], arms: tuple[str, ...] = ARM_NAMES_BIMANUAL,
+                     measured: str = "executed", reference: str = "expert") -> dict[str, list[list[float] | None]]:
     """Per arm and keyframe index, the median [cm, degrees] by which the executed action lies from the expert's over
     ``logs``' episodes (None where fewer than half of them reached that keyframe within the expert's plan). Set
     beside the successes' profile, it shows where the failures part from them, which the first divergence alone
-    does not when the successes diverge at the same place."""
+    does not when the successes diverge at the same place. ``measured="reached", reference="executed"`` gives the
+    tracking profile instead: how far the arms ended from what they were commanded (rows logged before the reached
+    poses were are skipped)."""
     cells: dict[str, dict[int, list[tuple[float, float]]]] = {}
     for steps in logs:
         for row in steps:
             if row["expert"] is None:
                 break
-            for i, (mine, theirs) in enumerate(zip(np.asarray(row["executed"]), np.asarray(row["expert"]))):
+            if row.get(measured) is None or row.get(reference) is None:
+                continue
+            for i, (mine, theirs) in enumerate(zip(np.asarray(row[measured]), np.asarray(row[reference]))):
                 arm = arms[i] if i < len(arms) else str(i)
                 metres, degrees = pose_error(mine, theirs)
                 cells.setdefault(arm, {}).setdefault(int(row["keyframe"]), []).append((100 * metres, degrees))
-    profile = {}
+    profile: dict[str, list[list[float] | None]] = {}
     for arm, by_keyframe in cells.items():
         last = max(by_keyframe)
         profile[arm] = [None if len(by_keyframe.get(k, [])) * 2 < len(logs) else
@@ -323,6 +328,12 @@ def explain_rows(folder: str | Path, task: str, methods: list[str] | None = None
                                   "successes": first_keyframe_summary([logs[k] for k in mine if k not in failed])},
             "keyframe_profile": {"failures": keyframe_profile([logs[k] for k in failed]),
                                  "successes": keyframe_profile([logs[k] for k in mine if k not in failed])},
+            # where the motion did not go where it was commanded (a contact, the arm's reach): the commanded
+            # keyframe can match the expert's while the arm stops short of it
+            "tracking_profile": {
+                "failures": keyframe_profile([logs[k] for k in failed], measured="reached", reference="executed"),
+                "successes": keyframe_profile([logs[k] for k in mine if k not in failed], measured="reached",
+                                              reference="executed")},
             "successes_first_divergence": dict(Counter(
                 f"k{d.keyframe} {d.arm} ({d.what})" if d else "never"
                 for d in (first_divergence(logs[k]) for k in mine if k not in failed)).most_common()),
@@ -365,6 +376,13 @@ def explain_text(rows: list[dict[str, Any]], task: str) -> str:
                 lines.append(f"  failures part most from the successes at k{gap['keyframe']} {gap['arm']} "
                              f"({gap['what']}): median {gap['failures']} against {gap['successes']} {unit} from the "
                              "expert")
+            tracking = r.get("tracking_profile") or {}
+            gap = widest_gap(tracking.get("failures") or {}, tracking.get("successes") or {})
+            if gap:
+                unit = "cm" if gap["what"] == "position" else "degrees"
+                lines.append(f"  the arms stop short of their command most apart from the successes at "
+                             f"k{gap['keyframe']} {gap['arm']} ({gap['what']}): median {gap['failures']} against "
+                             f"{gap['successes']} {unit} from where they were sent")
             for arm in profile.get("failures") or {}:
                 rows = {o: (profile.get(o) or {}).get(arm) or [] for o in ("failures", "successes")}
                 cells = [f"k{k} " + " | ".join("-" if k >= len(rows[o]) or rows[o][k] is None

@@ -31,7 +31,8 @@ class EpisodeRecord:
     frames: list[np.ndarray] = field(default_factory=list, repr=False)
     stages_done: int = 0  # leading stages of a multi-stage task reached (``Task.stage_names``)
     # One entry per keyframe (``keyframe_row``): the executed action, the scripted expert's action at the same
-    # index on this seed, the stages reached, and what the policy logs itself (``KeyframeLogging``).
+    # index on this seed, the stages reached, the poses reached, and what the policy logs itself
+    # (``KeyframeLogging``).
     steps: list[dict[str, Any]] = field(default_factory=list, repr=False)
 
 
@@ -39,12 +40,16 @@ def _rounded(rows: np.ndarray) -> list[list[float]]:
     return np.round(np.asarray(rows, np.float64), 4).tolist()
 
 
-def keyframe_row(k: int, executed: np.ndarray, expert: np.ndarray | None, stages_done: int, policy: Policy
-                 ) -> dict[str, Any]:
+def keyframe_row(k: int, executed: np.ndarray, expert: np.ndarray | None, stages_done: int, policy: Policy,
+                 reached: np.ndarray | None = None) -> dict[str, Any]:
     """A keyframe's log entry: the (arms, 9) world rows executed and the expert's at the same index (None past
-    the expert's last keyframe), the stages reached after it, and the policy's own log where it keeps one."""
+    the expert's last keyframe), the stages reached after it, the (arms, 8) poses the arms ended at (position,
+    quaternion, gripper open: where the motion went, which a contact or the arm's reach can keep from the
+    command), and the policy's own log where it keeps one."""
     row: dict[str, Any] = {"keyframe": k, "executed": _rounded(executed),
                            "expert": None if expert is None else _rounded(expert), "stages_done": stages_done}
+    if reached is not None:
+        row["reached"] = _rounded(reached)
     log = getattr(policy, "keyframe_log", None)
     if callable(log):
         row["policy"] = log()
@@ -78,7 +83,8 @@ def rollout(env: ManipulationEnv, policy: Policy, seed: int, max_keyframes: int,
         action = act(k, frame) if act is not None else policy.act(frame)
         obs, _, success, truncated, info = env.step(action)
         stages_done = int(info["stages_done"])
-        steps.append(keyframe_row(k, action, plan[k] if k < len(plan) else None, stages_done, policy))
+        steps.append(keyframe_row(k, action, plan[k] if k < len(plan) else None, stages_done, policy,
+                                  reached=obs["proprio"]))
         if record_camera:
             frames.append(obs["cameras"][record_camera]["rgb"])
         if success or truncated:
