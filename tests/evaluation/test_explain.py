@@ -255,6 +255,27 @@ def test_explain_shows_where_failures_part_from_successes_when_both_diverge_firs
     assert "right from the expert per keyframe (cm/degrees, failures | successes): k0 0/0 | 0/0" in text
 
 
+def test_explain_shows_where_the_failures_arms_stop_short_of_their_command(tmp_path: Path) -> None:
+    # every episode is sent where the expert goes; the failures' left arm ends 6 cm short of it at keyframe 1
+    def steps(short: float) -> list[dict]:
+        sent = [_row(0.5), _row(0.2)]
+        return [{**_step(0, sent, sent), "reached": [r[:8] for r in sent]},
+                {**_step(1, sent, sent), "reached": [_row(0.5 - short)[:8], _row(0.2)[:8]]}]
+
+    shorts = {0: 0.0, 1: 0.0, 2: 0.06, 3: 0.06}
+    (tmp_path / "episodes.jsonl").write_text("".join(
+        json.dumps({"task": "t", "method": "m", "seed": s, "success": s < 2, "keyframes": 2, "stages_done": 0}) + "\n"
+        for s in shorts))
+    (tmp_path / "keyframes.jsonl").write_text("".join(
+        json.dumps({"task": "t", "method": "m", "seed": s, "steps": steps(d)}) + "\n" for s, d in shorts.items()))
+    (row,) = explain_rows(tmp_path, "t")
+    assert row["first_divergence"] == {"never (too slow)": 2}  # the commands never strayed
+    assert row["tracking_profile"]["failures"]["left"] == [[0.0, 0.0], [6.0, 0.0]]
+    text = explain_text([row], "t")
+    assert ("the arms stop short of their command most apart from the successes at k1 left (position): median 6.0 "
+            "against 0.0 cm from where they were sent") in text
+
+
 def test_explained_seeds_are_the_seeds_the_rows_cover() -> None:
     rows = [{"method": "a", "seeds": [3, 1]}, {"method": "b", "seeds": [2, 1]}]
     assert explained_seeds(rows) == {"test": [1, 2, 3]}

@@ -370,19 +370,16 @@ def explain_text(rows: list[dict[str, Any]], task: str) -> str:
                 lines.append("  ... where the successes diverge first too: "
                              + ", ".join(f"{n} x {where}" for where, n in common.items()))
             profile = r.get("keyframe_profile") or {}
-            gap = widest_gap(profile.get("failures") or {}, profile.get("successes") or {})
-            if gap:
-                unit = "cm" if gap["what"] == "position" else "degrees"
-                lines.append(f"  failures part most from the successes at k{gap['keyframe']} {gap['arm']} "
-                             f"({gap['what']}): median {gap['failures']} against {gap['successes']} {unit} from the "
-                             "expert")
-            tracking = r.get("tracking_profile") or {}
-            gap = widest_gap(tracking.get("failures") or {}, tracking.get("successes") or {})
-            if gap:
-                unit = "cm" if gap["what"] == "position" else "degrees"
-                lines.append(f"  the arms stop short of their command most apart from the successes at "
-                             f"k{gap['keyframe']} {gap['arm']} ({gap['what']}): median {gap['failures']} against "
-                             f"{gap['successes']} {unit} from where they were sent")
+            for field, parting, reference in (
+                    ("keyframe_profile", "failures part most from the successes", "the expert"),
+                    ("tracking_profile", "the arms stop short of their command most apart from the successes",
+                     "where they were sent")):
+                found = r.get(field) or {}
+                gap = widest_gap(found.get("failures") or {}, found.get("successes") or {})
+                if gap:
+                    unit = "cm" if gap["what"] == "position" else "degrees"
+                    lines.append(f"  {parting} at k{gap['keyframe']} {gap['arm']} ({gap['what']}): median "
+                                 f"{gap['failures']} against {gap['successes']} {unit} from {reference}")
             for arm in profile.get("failures") or {}:
                 rows = {o: (profile.get(o) or {}).get(arm) or [] for o in ("failures", "successes")}
                 cells = [f"k{k} " + " | ".join("-" if k >= len(rows[o]) or rows[o][k] is None
