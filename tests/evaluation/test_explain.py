@@ -25,6 +25,17 @@ def _step(k: int, executed: list, expert: list | None, stages: int = 0) -> dict:
     return {"keyframe": k, "executed": executed, "expert": expert, "stages_done": stages}
 
 
+def _write_episodes(folder: Path, steps_by_seed: dict[int, list[dict]], successes: int) -> None:
+    """A bench folder of task "t", method "m": the first ``successes`` seeds succeed."""
+    seeds = list(steps_by_seed)
+    (folder / "episodes.jsonl").write_text("".join(
+        json.dumps({"task": "t", "method": "m", "seed": s, "success": s in seeds[:successes],
+                    "keyframes": len(steps_by_seed[s]), "stages_done": 0}) + "\n" for s in seeds))
+    (folder / "keyframes.jsonl").write_text("".join(
+        json.dumps({"task": "t", "method": "m", "seed": s, "steps": steps}) + "\n"
+        for s, steps in steps_by_seed.items()))
+
+
 def test_first_divergence_names_the_keyframe_the_arm_and_what_strayed() -> None:
     steps = [_step(0, [_row(0.5), _row(0.2)], [_row(0.51), _row(0.2)]),  # within 3 cm
              _step(1, [_row(0.5), _row(0.2, gripper=0.0)], [_row(0.5), _row(0.2)]),
@@ -239,11 +250,7 @@ def test_explain_shows_where_failures_part_from_successes_when_both_diverge_firs
                 _step(2, [_row(0.5), _row(0.2 + right_off)], [_row(0.5), _row(0.2)])]
 
     offsets = {0: 0.01, 1: 0.01, 2: 0.08, 3: 0.08}
-    (tmp_path / "episodes.jsonl").write_text("".join(
-        json.dumps({"task": "t", "method": "m", "seed": s, "success": s < 2, "keyframes": 3, "stages_done": 0}) + "\n"
-        for s in offsets))
-    (tmp_path / "keyframes.jsonl").write_text("".join(
-        json.dumps({"task": "t", "method": "m", "seed": s, "steps": steps(dx)}) + "\n" for s, dx in offsets.items()))
+    _write_episodes(tmp_path, {s: steps(dx) for s, dx in offsets.items()}, successes=2)
     (row,) = explain_rows(tmp_path, "t")
     assert row["first_divergence"] == {"k0 left (position)": 2}
     assert row["successes_first_divergence"] == {"k0 left (position)": 2}
@@ -263,11 +270,7 @@ def test_explain_shows_where_the_failures_arms_stop_short_of_their_command(tmp_p
                 {**_step(1, sent, sent), "reached": [_row(0.5 - short)[:8], _row(0.2)[:8]]}]
 
     shorts = {0: 0.0, 1: 0.0, 2: 0.06, 3: 0.06}
-    (tmp_path / "episodes.jsonl").write_text("".join(
-        json.dumps({"task": "t", "method": "m", "seed": s, "success": s < 2, "keyframes": 2, "stages_done": 0}) + "\n"
-        for s in shorts))
-    (tmp_path / "keyframes.jsonl").write_text("".join(
-        json.dumps({"task": "t", "method": "m", "seed": s, "steps": steps(d)}) + "\n" for s, d in shorts.items()))
+    _write_episodes(tmp_path, {s: steps(d) for s, d in shorts.items()}, successes=2)
     (row,) = explain_rows(tmp_path, "t")
     assert row["first_divergence"] == {"never (too slow)": 2}  # the commands never strayed
     assert row["tracking_profile"]["failures"]["left"] == [[0.0, 0.0], [6.0, 0.0]]
