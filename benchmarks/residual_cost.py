@@ -26,7 +26,8 @@ from bimanualshift.residual.skills import SkillBasis
 from bimanualshift.training.augment import Se3Augmentation
 from bimanualshift.training.configs import ResidualModelConfig, TrainConfig
 from bimanualshift.training.optim import make_optimizer
-from bimanualshift.training.residual_trainer import LossWeights, bc_loss, residual_data
+from bimanualshift.training.residual_data import residual_data
+from bimanualshift.training.residual_losses import LossWeights, bc_loss
 from bimanualshift.utils.pipes import quiet_on_closed_pipe
 
 

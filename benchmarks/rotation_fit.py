@@ -27,7 +27,8 @@ from bimanualshift.data.episode import list_episodes
 from bimanualshift.evaluation.report import invoked_command, write_result
 from bimanualshift.methods.bimanualshift import load_bimanualshift
 from bimanualshift.residual.manager import arm_and_slot
-from bimanualshift.training.residual_trainer import residual_data, rotation_report
+from bimanualshift.training.residual_data import residual_data
+from bimanualshift.training.residual_losses import rotation_report
 from bimanualshift.utils.pipes import quiet_on_closed_pipe
 
 

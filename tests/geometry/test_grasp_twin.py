@@ -11,7 +11,7 @@ from scipy.spatial.transform import Rotation
 
 from bimanualshift.geometry.frames import grasp_twin_mean, nearest_grasp_twin, rotation_difference
 from bimanualshift.residual.manager import ResidualConfig
-from bimanualshift.training.residual_trainer import rotation_target, slot_twin_references
+from bimanualshift.training.residual_data import rotation_target, slot_twin_references
 
 
 def _down(yaw_deg: float) -> np.ndarray:

@@ -4,7 +4,7 @@ import torch
 from bimanualshift.memory.bank import MemoryBank, MemoryEntry
 from bimanualshift.memory.reference import REFERENCE_DIM, episode_key, reference_vector
 from bimanualshift.perception.arm_samples import ArmSamples
-from bimanualshift.training.residual_trainer import episode_memory, retrieved_references
+from bimanualshift.training.residual_data import episode_memory, retrieved_references
 
 
 def two_arm_samples(episodes: int = 3, keyframes: int = 2) -> tuple[ArmSamples, torch.Tensor, torch.Tensor]:

@@ -17,7 +17,8 @@ from bimanualshift.priors.base import PriorOutput
 from bimanualshift.residual.manager import ResidualConfig, ResidualPolicy, action_lattice
 from bimanualshift.residual.skills import SkillBasis
 from bimanualshift.training.configs import ResidualModelConfig
-from bimanualshift.training.residual_trainer import LossWeights, ResidualData, bc_loss
+from bimanualshift.training.residual_data import ResidualData
+from bimanualshift.training.residual_losses import LossWeights, bc_loss
 from tests.residual.test_residual import FakeEncoder, inputs
 
 FRAME = ArmFrame((0.0, -0.3, 0.8))

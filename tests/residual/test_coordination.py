@@ -15,7 +15,8 @@ from bimanualshift.priors.base import PriorOutput
 from bimanualshift.residual.manager import ResidualConfig, ResidualPolicy
 from bimanualshift.residual.skills import SkillBasis
 from bimanualshift.training.configs import ResidualModelConfig
-from bimanualshift.training.residual_trainer import LossWeights, ResidualData, bc_loss, hold_labels
+from bimanualshift.training.residual_data import ResidualData, hold_labels
+from bimanualshift.training.residual_losses import LossWeights, bc_loss
 from tests.residual.test_residual import FakeEncoder, inputs
 
 FRAME = ArmFrame((0.0, -0.3, 0.8))

@@ -5,7 +5,8 @@ import torch
 
 from bimanualshift.residual.manager import ResidualConfig, ResidualPolicy, manager_inputs
 from bimanualshift.residual.skills import SkillBasis
-from bimanualshift.training.residual_trainer import LossWeights, ResidualData, validation_losses
+from bimanualshift.training.residual_data import ResidualData
+from bimanualshift.training.residual_losses import LossWeights, validation_losses
 
 
 def residual_moving(translation: list[float], rotation: list[float]) -> ResidualPolicy:

@@ -14,7 +14,7 @@ from bimanualshift.methods.prior_step import FrozenPriorStep
 from bimanualshift.priors import UnimanualPrior
 from bimanualshift.training.augment import Se3Augmentation, transform_points, transform_scene
 from bimanualshift.training.configs import ResidualModelConfig
-from bimanualshift.training.residual_trainer import residual_data
+from bimanualshift.training.residual_data import residual_data
 
 
 @pytest.fixture(scope="module")

@@ -6,7 +6,8 @@ from dataclasses import dataclass
 
 import torch
 
-from bimanualshift.training.residual_trainer import ResidualData, rotation_report
+from bimanualshift.training.residual_data import ResidualData
+from bimanualshift.training.residual_losses import rotation_report
 
 
 @dataclass

@@ -100,7 +100,7 @@ class ResidualConfig:
         """``slot_twin``'s mean grasp (x, y, z, w) for an arm and keyframe slot."""
         if not self.twin_references:
             raise ValueError("this residual has no twin references: they are set from the training demos before "
-                             "its targets are built (training.residual_trainer.residual_data)")
+                             "its targets are built (training.residual_data.residual_data)")
         start = 4 * (arm * self.slots_per_arm + slot)
         return np.asarray(self.twin_references[start:start + 4], dtype=np.float64)
 

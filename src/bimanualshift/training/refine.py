@@ -47,17 +47,15 @@ from bimanualshift.training.augment import Se3Augmentation
 from bimanualshift.training.configs import RefineConfig, TrainConfig
 from bimanualshift.training.loop import run_training
 from bimanualshift.training.optim import make_lamb
-from bimanualshift.training.residual_trainer import (
+from bimanualshift.training.residual_data import (
     TARGET_FIELDS,
-    LossWeights,
     ResidualData,
     action_space_targets,
-    bc_loss,
     repeats,
     residual_data,
     rotation_target,
-    validation_losses,
 )
+from bimanualshift.training.residual_losses import LossWeights, bc_loss, validation_losses
 from bimanualshift.utils.config_files import config_from_dict, load_safetensors, read_json_file
 from bimanualshift.utils.io import atomic_write_json, atomic_writer
 from bimanualshift.utils.workers import run_jobs
