@@ -86,7 +86,17 @@ def test_auto_choice_is_recorded_kept_on_resume_and_loaded(demo_root: Path, prio
                                 validation_data=str(demo_root / "bimanual"), out=str(out), steps=steps,
                                 checkpoint_every=2, demos=2, schedule="constant", prior_instruction=instruction)
 
+    built: list[tuple[str, int]] = []
+
+    def counted(paths: list[Path], *args: object, desc: str = "", **kwargs: object) -> ArmSamples:
+        built.append((desc, len(paths)))
+        return build_arm_samples(paths, *args, desc=desc, **kwargs)
+
+    for module in ("residual_trainer", "residual_data"):
+        monkeypatch.setattr(f"bimanualshift.training.{module}.build_arm_samples", counted)
     best_dir = train_residual(cfg(2))
+    # the choice and the residual read the same training samples: the demos are voxelised once, the validation once
+    assert built == [("voxelise train", 2), ("prior outputs (val)", 2)]
     record = json.loads((tmp_path / PRIOR_INSTRUCTION_FILE).read_text())
     texts = [row["instruction"] for row in record["candidates"]]
     assert texts == ["(the task's own)", *suite_instructions(str(prior_dir))]
@@ -118,6 +128,15 @@ def fake_samples(episode: list[int], arm: list[str]) -> ArmSamples:
                       gripper_open=np.ones(n, np.int64), ignore_collisions=np.zeros(n, np.int64),
                       episode=np.asarray(episode), keyframe=np.zeros(n, np.int64), arm=arm,
                       other_proprio=np.zeros((n, 8), np.float32))
+
+
+def test_first_episodes_keeps_every_field_of_the_first_episodes_samples() -> None:
+    samples = fake_samples([0, 0, 1, 2, 2], ["left", "right", "left", "left", "right"])
+    samples.proprio[:, 0] = np.arange(5)
+    first = samples.first_episodes(2)
+    assert first.episode.tolist() == [0, 0, 1] and first.arm == ["left", "right", "left"]
+    assert first.proprio[:, 0].tolist() == [0, 1, 2] and len(first.instructions) == 3 and first.voxels is None
+    assert len(samples.first_episodes(10)) == 5
 
 
 def test_arm_labels_give_one_instruction_to_the_arms_it_helps_past_the_margin() -> None:

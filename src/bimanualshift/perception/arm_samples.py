@@ -38,6 +38,16 @@ class ArmSamples:
     def __len__(self) -> int:
         return len(self.instructions)
 
+    def first_episodes(self, count: int) -> ArmSamples:
+        """The samples of the first ``count`` source episodes (all of them when there are fewer)."""
+        keep = np.flatnonzero(self.episode < count)
+        values = {}
+        for name in self.__dataclass_fields__:
+            value = getattr(self, name)
+            values[name] = (None if value is None else [value[i] for i in keep] if isinstance(value, list)
+                            else value[keep])
+        return ArmSamples(**values)
+
 
 def build_arm_samples(paths: list[Path], builder: ArmObservationBuilder, max_keyframes: int,
                       desc: str = "voxelise", transform: Callable[[Episode], Episode] | None = None) -> ArmSamples:

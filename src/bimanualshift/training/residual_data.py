@@ -145,7 +145,8 @@ def slot_twin_references(config: ResidualConfig, arm_index: np.ndarray, keyframe
 def residual_data(config: ResidualConfig, paths: list[Path], prior_step: FrozenPriorStep, text_encoder: TextEncoder,
                   desc: str, augmentation: Se3Augmentation | None = None, augment_copies: int = 0, seed: int = 0,
                   memory: MemoryBank | None = None, own_memory: bool = False, build_memory: float | None = None,
-                  task: str = "", earlier_memory: MemoryBank | None = None) -> ResidualData:
+                  task: str = "", earlier_memory: MemoryBank | None = None,
+                  samples: ArmSamples | None = None) -> ResidualData:
     """Manager inputs (as ``config`` reads them) and residual targets for every (keyframe, arm), from the frozen
     prior's outputs.
 
@@ -157,11 +158,13 @@ def residual_data(config: ResidualConfig, paths: list[Path], prior_step: FrozenP
     With a ``memory`` bank, each sample also gets the retrieved temporal reference of its episode; with
     ``own_memory`` the bank's first entries are these very episodes (in order) and an episode never retrieves
     itself. ``build_memory`` (a confidence threshold) builds that bank from these episodes in the same pass,
-    followed by the entries of ``earlier_memory`` (an earlier task's bank) when given.
+    followed by the entries of ``earlier_memory`` (an earlier task's bank) when given. ``samples``, when given,
+    are ``paths``' samples already built (``build_arm_samples``), so the demos are not voxelised twice.
     """
     if augment_copies and augmentation is None:
         raise ValueError("augment_copies > 0 needs an augmentation (Se3Augmentation)")
-    samples = build_arm_samples(paths, prior_step.builder, prior_step.prior.config.max_keyframes, desc=desc)
+    if samples is None:
+        samples = build_arm_samples(paths, prior_step.builder, prior_step.prior.config.max_keyframes, desc=desc)
     grid = prior_step.builder.grid
     n = len(samples)
     arm_index = torch.as_tensor([ARM_ORDER.index(a) if a in ARM_ORDER else 0 for a in samples.arm])

@@ -20,7 +20,7 @@ from bimanualshift.memory.bank import MemoryBank
 from bimanualshift.methods.bimanualshift import MEMORY_FILE, save_residual
 from bimanualshift.methods.instruction_chooser import InstructionChooser
 from bimanualshift.methods.prior_step import FrozenPriorStep, goal_switches
-from bimanualshift.perception.arm_samples import build_arm_samples
+from bimanualshift.perception.arm_samples import ArmSamples, build_arm_samples
 from bimanualshift.priors.base import UnimanualPrior
 from bimanualshift.residual.manager import (
     ResidualConfig,
@@ -109,11 +109,11 @@ def changed_settings(cfg: TrainConfig) -> list[str]:
 PRIOR_INSTRUCTION_FILE = "prior_instruction.json"  # under the run folder: what `auto` chose, and from what
 
 
-def resolve_prior_instruction(cfg: TrainConfig, prior_step: FrozenPriorStep, paths: list[Path], out: Path
-                              ) -> dict[str, Any]:
+def resolve_prior_instruction(cfg: TrainConfig, prior_step: FrozenPriorStep, paths: list[Path], out: Path,
+                              samples: ArmSamples | None = None) -> dict[str, Any]:
     """Set ``prior_step.prior_instruction`` (and its ``instruction_chooser``) from ``--prior-instruction``; ``auto``
-    and ``per_arm`` choose on the training demos once per run (a resumed run reads its earlier choice) and record
-    the choice with its table."""
+    and ``per_arm`` choose on the first training demos once per run (a resumed run reads its earlier choice) and
+    record the choice with its table. ``samples``: ``paths``' samples when already built (else they are built)."""
     wanted = cfg.model.prior_instruction
     if wanted not in (AUTO, PER_ARM):
         prior_step.prior_instruction = wanted
@@ -121,20 +121,20 @@ def resolve_prior_instruction(cfg: TrainConfig, prior_step: FrozenPriorStep, pat
     record = out / PRIOR_INSTRUCTION_FILE
     if record.is_file():
         chosen = read_json_file(record, "prior instruction choice")
-    elif wanted == AUTO:
-        samples = build_arm_samples(paths[:CHOICE_DEMOS], prior_step.builder, prior_step.prior.config.max_keyframes,
-                                    desc="prior instruction")
-        instruction, table = choose_prior_instruction(prior_step, samples, suite_instructions(cfg.prior))
-        chosen = {"prior_instruction": instruction, "margin": MARGIN, "chosen_on_demos": len(paths[:CHOICE_DEMOS]),
-                  "candidates": table}
-        atomic_write_json(record, chosen)
     else:
-        demos = paths[:PER_ARM_CHOICE_DEMOS]
-        samples = build_arm_samples(demos, prior_step.builder, prior_step.prior.config.max_keyframes,
-                                    desc="prior instruction per arm")
-        chooser, table = choose_arm_instructions(prior_step, samples, suite_instructions(cfg.prior))
-        chosen = {"prior_instruction": "", "instruction_chooser": chooser.to_dict() if chooser else None,
-                  "margin": MARGIN, "chosen_on_demos": len(demos), **table}
+        count = min(len(paths), CHOICE_DEMOS if wanted == AUTO else PER_ARM_CHOICE_DEMOS)
+        if samples is None:
+            samples = build_arm_samples(paths[:count], prior_step.builder, prior_step.prior.config.max_keyframes,
+                                        desc="prior instruction")
+        samples = samples.first_episodes(count)
+        if wanted == AUTO:
+            instruction, table = choose_prior_instruction(prior_step, samples, suite_instructions(cfg.prior))
+            chosen = {"prior_instruction": instruction, "margin": MARGIN, "chosen_on_demos": count,
+                      "candidates": table}
+        else:
+            chooser, table = choose_arm_instructions(prior_step, samples, suite_instructions(cfg.prior))
+            chosen = {"prior_instruction": "", "instruction_chooser": chooser.to_dict() if chooser else None,
+                      "margin": MARGIN, "chosen_on_demos": count, **table}
         atomic_write_json(record, chosen)
     prior_step.prior_instruction = chosen["prior_instruction"]
     saved_chooser = chosen.get("instruction_chooser")
@@ -169,7 +169,11 @@ def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Pat
     if not paths:
         raise FileNotFoundError(f"no bimanual demos for {cfg.dataset.task} under {cfg.dataset.data}; run "
                                 f"`bimanualshift collect --task {cfg.dataset.task} --out {cfg.dataset.data}` first")
-    instruction_choice = resolve_prior_instruction(cfg, prior_step, paths, out)
+    # a choice of the prior's instruction reads the training demos' samples: build them once for it and the residual
+    choosing = cfg.model.prior_instruction in (AUTO, PER_ARM) and not (out / PRIOR_INSTRUCTION_FILE).is_file()
+    samples = (build_arm_samples(paths, prior_step.builder, prior.config.max_keyframes, desc="voxelise train")
+               if choosing else None)
+    instruction_choice = resolve_prior_instruction(cfg, prior_step, paths, out, samples)
     if cfg.model.proposal_features and not prior.proposal_feature_dim:
         raise ValueError(f"the prior {cfg.prior} exposes no local features for the Manager to read at its proposal; "
                          "train with --proposal-features false")
@@ -180,7 +184,7 @@ def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Pat
     train = residual_data(rcfg, paths, prior_step, text_encoder, "prior outputs (train)", augmentation,
                           data.augment_copies, optim.seed,
                           build_memory=model.retrieval_threshold if model.retrieval else None, task=data.task,
-                          earlier_memory=earlier_memory)
+                          earlier_memory=earlier_memory, samples=samples)
     memory = train.memory
     rcfg = replace(rcfg, twin_references=train.twin_references)  # "slot_twin": the training demos' mean grasps
     val_paths = list_episodes(cfg.dataset.validation_data, cfg.dataset.task)
