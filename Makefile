@@ -21,9 +21,10 @@ install: $(BIN)/.installed
 demo: install
 	$(BIN)/bimanualshift demo
 
-# Two pytest workers, one per core; a test file stays on one worker (its fixtures are built once there).
+# Two pytest workers, one per core; a test file stays on one worker (its fixtures are built once there). The 15
+# slowest tests are listed at the end, to keep the suite well under its 15-minute budget.
 test: install lint
-	$(BIN)/python -m pytest -q -n 2 --dist loadfile
+	$(BIN)/python -m pytest -q -n 2 --dist loadfile --durations=15
 
 lint: install
 	$(BIN)/ruff check src tests benchmarks examples
