@@ -279,6 +279,11 @@ def test_explain_shows_where_the_failures_arms_stop_short_of_their_command(tmp_p
             "against 0.0 cm from where they were sent") in text
 
 
+def test_explain_names_a_missing_folder(tmp_path: Path) -> None:
+    with pytest.raises(FileNotFoundError, match="is not a folder: give a bench or study run's result folder"):
+        explain_rows(tmp_path / "nope", "t")
+
+
 def test_explained_seeds_are_the_seeds_the_rows_cover() -> None:
     rows = [{"method": "a", "seeds": [3, 1]}, {"method": "b", "seeds": [2, 1]}]
     assert explained_seeds(rows) == {"test": [1, 2, 3]}

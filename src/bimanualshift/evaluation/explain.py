@@ -252,6 +252,9 @@ def explain_rows(folder: str | Path, task: str, methods: list[str] | None = None
     With ``against``, each other method's episodes are also set against that method's on the same seeds; with
     ``perturbation``, only the episodes tested under it count."""
     folder = Path(folder)
+    if not folder.is_dir():
+        raise FileNotFoundError(f"{folder} is not a folder: give a bench or study run's result folder, the one "
+                                "holding episodes.jsonl (e.g. results/table1/complex_tasks)")
     log = folder / KEYFRAME_LOG
     if not log.is_file() and log.with_suffix(".jsonl.gz").is_file():  # an archived folder keeps its log gzipped
         log = log.with_suffix(".jsonl.gz")
