@@ -23,6 +23,13 @@ def test_collect_rejects_unknown_task() -> None:
         main(["collect", "--task", "nope", "--episodes", "1", "--out", "/tmp/x"])
 
 
+@pytest.mark.slow
+def test_deploy_names_a_server_it_cannot_reach() -> None:
+    with pytest.raises(SystemExit, match="cannot reach the policy server at ws://127.0.0.1:1: .*bimanualshift serve"):
+        main(["deploy", "--robot", "sim", "--task", "push_two_buttons", "--server", "ws://127.0.0.1:1", "--episodes",
+              "1"])
+
+
 def test_train_rejects_unknown_config_keys(tmp_path) -> None:  # noqa: ANN001
     cfg = tmp_path / "c.json"
     cfg.write_text('{"stepz": 3}')

@@ -122,6 +122,16 @@ def test_index_marks_a_partial_summary(tmp_path: Path) -> None:
     assert "Partial" not in index and "<!-- results:table1/complex_tasks -->" in index
 
 
+def test_index_of_a_missing_results_folder_is_refused(tmp_path: Path) -> None:
+    import pytest
+
+    from bimanualshift.evaluation.readme import render_index
+
+    with pytest.raises(FileNotFoundError, match="no results folder"):
+        render_index(tmp_path / "nope")
+    assert not (tmp_path / "nope").exists()  # nothing written
+
+
 def test_generic_table_gives_every_rows_fields_a_column() -> None:
     from bimanualshift.evaluation.tables import generic_table
 

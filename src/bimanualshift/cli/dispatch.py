@@ -83,10 +83,10 @@ COMMANDS: dict[str, Command] = {
     "report": Command("evaluate:report", "regenerate the README tables from the result files"),
 }
 
-# A user's mistake (a missing folder, a corrupt file, an unknown name, a bad value) raises one of these with a
-# message that says what to fix; anything else is a bug and keeps its traceback.
+# A user's mistake (a missing folder, a corrupt file, an unknown name, a bad value, a server that is not there)
+# raises one of these with a message that says what to fix; anything else is a bug and keeps its traceback.
 USER_ERRORS = (ValueError, FileNotFoundError, NotADirectoryError, IsADirectoryError, PermissionError, KeyError,
-               PluginError, CheckpointError)
+               ConnectionError, PluginError, CheckpointError)
 
 
 class CommandExit(SystemExit):

@@ -48,7 +48,8 @@ class PolicyClient:
             body = err.response.body.decode(errors="replace").strip() if err.response.body else ""
             raise ServerUnavailable(f"{self.url} refused the connection: HTTP {status} {body}") from None
         except (OSError, TimeoutError, WebSocketException, CodecError) as err:
-            raise ServerUnavailable(f"cannot reach the policy server at {self.url}: {err}") from None
+            raise ServerUnavailable(f"cannot reach the policy server at {self.url}: {err}; is `bimanualshift serve` "
+                                    "running there (check --server)?") from None
 
     def reconnect(self) -> None:
         self.close()

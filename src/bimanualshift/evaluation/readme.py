@@ -77,6 +77,9 @@ def render_index(results_dir: str | Path = "results") -> Path:
     summary that leaves out episodes recorded beside it (``unsummarised_pairs``) is marked partial above its table:
     a half-built table read as a finished one would mislead."""
     results_dir = Path(results_dir)
+    if not results_dir.is_dir():
+        raise FileNotFoundError(f"no results folder {results_dir}: give the folder the result files are in "
+                                "(--results, default results)")
     parts = ["# Results", "",
              "Every table below is generated from the result file it names by `bimanualshift report --index`;",
              "each file records the command, seeds, commit, machine and wall time that produced it.", ""]
