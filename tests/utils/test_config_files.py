@@ -78,3 +78,12 @@ def test_a_flat_key_keeps_the_parents_defaults_for_the_rest_of_its_group() -> No
     assert (residual.optim.lr, residual.optim.schedule) == (TrainConfig().optim.lr, TrainConfig().optim.schedule)
     pretrain = config_from_flat(PretrainConfig, lr=3e-4)
     assert pretrain.optim.lr == 3e-4 and pretrain.optim.steps == PretrainConfig().optim.steps
+
+
+def test_a_missing_config_names_the_folder_and_what_is_missing(tmp_path: Path) -> None:
+    from bimanualshift.utils.config_files import read_json_file
+
+    with pytest.raises(FileNotFoundError, match=r"no BimanualShift checkpoint at .*nope \(that folder does not"):
+        read_json_file(tmp_path / "nope" / "config.json", "BimanualShift checkpoint")
+    with pytest.raises(FileNotFoundError, match=r"config.json is missing there"):
+        read_json_file(tmp_path / "config.json", "BimanualShift checkpoint")

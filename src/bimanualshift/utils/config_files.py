@@ -17,6 +17,9 @@ class CheckpointError(ValueError):
 
 def read_json_file(path: str | Path, what: str = "config") -> dict[str, Any]:
     path = Path(path)
+    if not path.is_file():
+        where = "that folder does not exist" if not path.parent.is_dir() else f"{path.name} is missing there"
+        raise FileNotFoundError(f"no {what} at {path.parent} ({where}); check the path")
     try:
         raw = json.loads(path.read_text())
     except json.JSONDecodeError as err:
