@@ -22,15 +22,10 @@ from bimanualshift.methods.instruction_chooser import InstructionChooser
 from bimanualshift.methods.prior_step import FrozenPriorStep, goal_switches
 from bimanualshift.perception.arm_samples import ArmSamples, build_arm_samples
 from bimanualshift.priors.base import UnimanualPrior
-from bimanualshift.residual.manager import (
-    ResidualConfig,
-    ResidualPolicy,
-)
+from bimanualshift.residual.manager import ResidualConfig, ResidualPolicy
 from bimanualshift.residual.output_gate import choose_output_scale, reset_output_scale
 from bimanualshift.residual.skills import SkillBasis
-from bimanualshift.training.augment import (
-    Se3Augmentation,
-)
+from bimanualshift.training.augment import Se3Augmentation
 from bimanualshift.training.checkpoint import latest_checkpoint
 from bimanualshift.training.configs import TrainConfig
 from bimanualshift.training.loop import run_training
