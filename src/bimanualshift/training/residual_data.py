@@ -17,23 +17,14 @@ import torch
 import torch.nn.functional as F
 
 from bimanualshift.encoders.text import TextEncoder
-from bimanualshift.geometry.frames import (
-    grasp_twin_mean,
-    nearest_grasp_twin,
-    quat_to_euler_bins,
-    rotation_difference,
-)
+from bimanualshift.geometry.frames import grasp_twin_mean, nearest_grasp_twin, quat_to_euler_bins, rotation_difference
 from bimanualshift.geometry.voxels import VoxelGrid
 from bimanualshift.memory.bank import MemoryBank, MemoryEntry
 from bimanualshift.memory.reference import REFERENCE_DIM, ProgressAlignment, episode_key, reference_vector
 from bimanualshift.methods.prior_step import FrozenPriorStep
 from bimanualshift.perception.arm_samples import ArmSamples, build_arm_samples
 from bimanualshift.priors.base import PriorOutput, UnimanualPrior
-from bimanualshift.residual.manager import (
-    ResidualConfig,
-    action_lattice,
-    manager_input_rows,
-)
+from bimanualshift.residual.manager import ResidualConfig, action_lattice, manager_input_rows
 from bimanualshift.training.augment import (
     Se3Augmentation,
     sample_motion,
@@ -44,9 +35,7 @@ from bimanualshift.training.augment import (
     transform_scene,
 )
 from bimanualshift.training.configs import ARM_ORDER
-from bimanualshift.training.prior_instruction import (
-    sample_features,
-)
+from bimanualshift.training.prior_instruction import sample_features
 
 
 @dataclass

@@ -10,12 +10,7 @@ import torch
 import torch.nn.functional as F
 from scipy.spatial.transform import Rotation
 
-from bimanualshift.residual.manager import (
-    ResidualPolicy,
-    action_lattice,
-    arm_and_slot,
-    keyframe_slots,
-)
+from bimanualshift.residual.manager import ResidualPolicy, action_lattice, arm_and_slot, keyframe_slots
 from bimanualshift.residual.output_gate import clipped_pose_error
 from bimanualshift.training.residual_data import ResidualData
 
