@@ -293,6 +293,8 @@ def explain_rows(folder: str | Path, task: str, methods: list[str] | None = None
     for method in dict.fromkeys(k[1] for k in keys):
         mine = [k for k in keys if k[1] == method]
         failed = [k for k in mine if not episodes[k]["success"]]
+        failed_logs = [logs[k] for k in failed]
+        success_logs = [logs[k] for k in mine if episodes[k]["success"]]
         divergences = {k: first_divergence(logs[k]) for k in failed}
         retrievals = [r for r in (_retrieval(logs[k]) for k in mine) if r is not None]
         # per arm and stage reached: [keyframes the arm was held, keyframes] (a waiting arm that never resumes
@@ -327,19 +329,17 @@ def explain_rows(folder: str | Path, task: str, methods: list[str] | None = None
                           "retrieval_entry": (_retrieval(logs[k]) or {}).get("entry")} for k, d in divergences.items()],
             # the first keyframe is the one whose expert reference is always valid (later ones drift with the
             # episode), so it separates a bad start from a later slip
-            "first_keyframe_cm": {"failures": first_keyframe_summary([logs[k] for k in failed]),
-                                  "successes": first_keyframe_summary([logs[k] for k in mine if k not in failed])},
-            "keyframe_profile": {"failures": keyframe_profile([logs[k] for k in failed]),
-                                 "successes": keyframe_profile([logs[k] for k in mine if k not in failed])},
+            "first_keyframe_cm": {"failures": first_keyframe_summary(failed_logs),
+                                  "successes": first_keyframe_summary(success_logs)},
+            "keyframe_profile": {"failures": keyframe_profile(failed_logs),
+                                 "successes": keyframe_profile(success_logs)},
             # where the motion did not go where it was commanded (a contact, the arm's reach): the commanded
             # keyframe can match the expert's while the arm stops short of it
-            "tracking_profile": {
-                "failures": keyframe_profile([logs[k] for k in failed], measured="reached", reference="executed"),
-                "successes": keyframe_profile([logs[k] for k in mine if k not in failed], measured="reached",
-                                              reference="executed")},
+            "tracking_profile": {o: keyframe_profile(group, measured="reached", reference="executed")
+                                 for o, group in (("failures", failed_logs), ("successes", success_logs))},
             "successes_first_divergence": dict(Counter(
                 f"k{d.keyframe} {d.arm} ({d.what})" if d else "never"
-                for d in (first_divergence(logs[k]) for k in mine if k not in failed)).most_common()),
+                for d in (first_divergence(steps) for steps in success_logs)).most_common()),
             "held_arm_keyframes": held,
             "held_by_arm_and_stage": {arm: dict(sorted(v.items())) for arm, v in held_by_stage.items()},
             "same_lead_arm": dict(sorted(leads.items())),

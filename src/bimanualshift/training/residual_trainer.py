@@ -104,37 +104,38 @@ def changed_settings(cfg: TrainConfig) -> list[str]:
 PRIOR_INSTRUCTION_FILE = "prior_instruction.json"  # under the run folder: what `auto` chose, and from what
 
 
-def resolve_prior_instruction(cfg: TrainConfig, prior_step: FrozenPriorStep, paths: list[Path], out: Path,
-                              samples: ArmSamples | None = None) -> dict[str, Any]:
+def resolve_prior_instruction(cfg: TrainConfig, prior_step: FrozenPriorStep, paths: list[Path], out: Path
+                              ) -> tuple[dict[str, Any], ArmSamples | None]:
     """Set ``prior_step.prior_instruction`` (and its ``instruction_chooser``) from ``--prior-instruction``; ``auto``
     and ``per_arm`` choose on the first training demos once per run (a resumed run reads its earlier choice) and
-    record the choice with its table. ``samples``: ``paths``' samples when already built (else they are built)."""
+    record the choice with its table. Returns the choice and, when it had to be made, every training demo's samples
+    (built once, for the choice and then the residual), else None."""
     wanted = cfg.model.prior_instruction
     if wanted not in (AUTO, PER_ARM):
         prior_step.prior_instruction = wanted
-        return {"prior_instruction": wanted}
+        return {"prior_instruction": wanted}, None
     record = out / PRIOR_INSTRUCTION_FILE
+    samples = None
     if record.is_file():
         chosen = read_json_file(record, "prior instruction choice")
     else:
         count = min(len(paths), CHOICE_DEMOS if wanted == AUTO else PER_ARM_CHOICE_DEMOS)
-        if samples is None:
-            samples = build_arm_samples(paths[:count], prior_step.builder, prior_step.prior.config.max_keyframes,
-                                        desc="prior instruction")
-        samples = samples.first_episodes(count)
+        samples = build_arm_samples(paths, prior_step.builder, prior_step.prior.config.max_keyframes,
+                                    desc="voxelise train")
+        first = samples.first_episodes(count)
         if wanted == AUTO:
-            instruction, table = choose_prior_instruction(prior_step, samples, suite_instructions(cfg.prior))
+            instruction, table = choose_prior_instruction(prior_step, first, suite_instructions(cfg.prior))
             chosen = {"prior_instruction": instruction, "margin": MARGIN, "chosen_on_demos": count,
                       "candidates": table}
         else:
-            chooser, table = choose_arm_instructions(prior_step, samples, suite_instructions(cfg.prior))
+            chooser, table = choose_arm_instructions(prior_step, first, suite_instructions(cfg.prior))
             chosen = {"prior_instruction": "", "instruction_chooser": chooser.to_dict() if chooser else None,
                       "margin": MARGIN, "chosen_on_demos": count, **table}
         atomic_write_json(record, chosen)
     prior_step.prior_instruction = chosen["prior_instruction"]
     saved_chooser = chosen.get("instruction_chooser")
     prior_step.instruction_chooser = InstructionChooser.from_dict(saved_chooser) if saved_chooser else None
-    return chosen
+    return chosen, samples
 
 
 def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Path:
@@ -164,11 +165,7 @@ def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Pat
     if not paths:
         raise FileNotFoundError(f"no bimanual demos for {cfg.dataset.task} under {cfg.dataset.data}; run "
                                 f"`bimanualshift collect --task {cfg.dataset.task} --out {cfg.dataset.data}` first")
-    # a choice of the prior's instruction reads the training demos' samples: build them once for it and the residual
-    choosing = cfg.model.prior_instruction in (AUTO, PER_ARM) and not (out / PRIOR_INSTRUCTION_FILE).is_file()
-    samples = (build_arm_samples(paths, prior_step.builder, prior.config.max_keyframes, desc="voxelise train")
-               if choosing else None)
-    instruction_choice = resolve_prior_instruction(cfg, prior_step, paths, out, samples)
+    instruction_choice, samples = resolve_prior_instruction(cfg, prior_step, paths, out)
     if cfg.model.proposal_features and not prior.proposal_feature_dim:
         raise ValueError(f"the prior {cfg.prior} exposes no local features for the Manager to read at its proposal; "
                          "train with --proposal-features false")
