@@ -100,7 +100,8 @@ def test_index_lists_every_result_file_including_study_runs(tmp_path: Path) -> N
     assert render_readme(tmp_path / "README.md", tmp_path) == ["few_shot/demos_5", "speed"]  # blocks stay live
 
 
-def test_index_marks_a_partial_summary(tmp_path: Path) -> None:
+def test_index_marks_a_partial_summary(tmp_path: Path, monkeypatch) -> None:
+    from bimanualshift.evaluation import readme
     from bimanualshift.evaluation.readme import render_index, unsummarised_pairs
 
     envelope = {"command": "c", "commit": "abcdef1234567", "created": "t", "machine": "m", "seeds": {"test": [1]},
@@ -113,8 +114,12 @@ def test_index_marks_a_partial_summary(tmp_path: Path) -> None:
     (half / "summary.json").write_text(json.dumps({**envelope, "rows": [row]}))  # the last run covered a/x only
     (tmp_path / "table1" / "summary.json").write_text(json.dumps({**envelope, "rows": [row]}))  # the study's
     assert unsummarised_pairs(half / "summary.json", {"rows": [row]}) == [("a", "y"), ("b", "x"), ("b", "y")]
+    reads: list[Path] = []
+    read = readme.read_records
+    monkeypatch.setattr(readme, "read_records", lambda log: reads.append(log) or read(log))
     index = render_index(tmp_path).read_text()
     assert index.count("**Partial**: 3 task/method pairs") == 2 and "a/y, b/x, b/y" in index
+    assert reads.count(half / "episodes.jsonl") == 1  # the study's summary and its half's share one reading
     rows = [{**row, "task": t, "method": m} for t in ("a", "b") for m in ("x", "y")]
     (half / "summary.json").write_text(json.dumps({**envelope, "rows": rows}))
     (tmp_path / "table1" / "summary.json").write_text(json.dumps({**envelope, "rows": rows}))

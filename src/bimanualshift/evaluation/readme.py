@@ -58,15 +58,23 @@ def result_names(results_dir: str | Path) -> list[str]:
     return sorted(set(names))
 
 
-def unsummarised_pairs(summary: Path, result: dict) -> list[tuple[str, str]]:
+def _recorded_pairs(log: Path, cache: dict[Path, set[tuple[str, str]]]) -> set[tuple[str, str]]:
+    """The (task, method) pairs of one episode log, read once per index: a study's summary and each of its
+    runs' summaries look at the same logs."""
+    if log not in cache:
+        cache[log] = {(e["task"], e["method"]) for e in read_records(log) if "task" in e and "method" in e}
+    return cache[log]
+
+
+def unsummarised_pairs(summary: Path, result: dict,
+                       cache: dict[Path, set[tuple[str, str]]] | None = None) -> list[tuple[str, str]]:
     """(task, method) pairs with episodes recorded beside ``summary`` (its folder's ``episodes.jsonl`` and, for a
     study, its runs' folders) but no row in it: the summary of a run that covered part of what its folder holds
     (a study run one task or one group of methods at a time); a study's ``--recorded-only`` rewrites it whole."""
-    folder = summary.parent
+    folder, cache = summary.parent, {} if cache is None else cache
     logs = [folder / "episodes.jsonl"] + [child / "episodes.jsonl" for child in sorted(folder.iterdir())
                                          if child.is_dir() and (child / "summary.json").is_file()]
-    recorded = {(e["task"], e["method"]) for log in logs if log.is_file() for e in read_records(log)
-                if "task" in e and "method" in e}
+    recorded = set().union(*(_recorded_pairs(log, cache) for log in logs))
     rows = {(r.get("task"), r.get("method")) for r in result.get("rows", []) if isinstance(r, dict)}
     return sorted(recorded - rows)
 
@@ -83,6 +91,7 @@ def render_index(results_dir: str | Path = "results") -> Path:
     parts = ["# Results", "",
              "Every table below is generated from the result file it names by `bimanualshift report --index`;",
              "each file records the command, seeds, commit, machine and wall time that produced it.", ""]
+    logs: dict[Path, set[tuple[str, str]]] = {}
     for name in result_names(results_dir):
         path = result_file(results_dir, name)
         try:
@@ -90,7 +99,7 @@ def render_index(results_dir: str | Path = "results") -> Path:
             table = table_for(result)
         except (KeyError, ValueError, IndexError, TypeError) as exc:
             result, table = {}, f"(not a results-envelope file: {exc!r})\n"
-        missing = unsummarised_pairs(path, result) if path.name == "summary.json" else []
+        missing = unsummarised_pairs(path, result, logs) if path.name == "summary.json" else []
         parts += [f"## {name}", "", f"`{path.relative_to(results_dir)}`", ""]
         if missing:
             shown = ", ".join(f"{t}/{m}" for t, m in missing[:4]) + (", ..." if len(missing) > 4 else "")
