@@ -6,11 +6,13 @@
         --methods bimanualshift peract_lf --perturbation all
     .venv/bin/python benchmarks/paired_comparison.py results/residual_space/object_boxes \
         --methods object_boxes no_refinement --against results/residual_space/refine_memory
+    .venv/bin/python benchmarks/paired_comparison.py results/episodes100/table1 --methods bimanualshift peract_lf
 
 Both methods roll out the same seeds, so the episodes where they disagree carry the whole difference: per task and
 over all tasks, how many each one wins and the exact two-sided sign test's p (``evaluation.stats``). Reads the
 folder's ``episodes.jsonl`` (method B's from ``--against``'s when its episodes were recorded in another folder on the
-same seeds); nothing is rolled out. ``--perturbation`` picks the episodes of one perturbation
+same seeds); nothing is rolled out. A study folder (`results/table1`), whose task groups each hold an
+``episodes.jsonl``, is read whole. ``--perturbation`` picks the episodes of one perturbation
 (``none``, the default, for a folder without perturbations) or ``all`` of them, one row per task and perturbation.
 """
 
@@ -29,7 +31,8 @@ from bimanualshift.utils.pipes import quiet_on_closed_pipe
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("folder", help="a bench result folder holding episodes.jsonl")
+    parser.add_argument("folder", help="a bench result folder holding episodes.jsonl, or a study folder whose "
+                                           "subfolders hold them")
     parser.add_argument("--methods", nargs=2, required=True, metavar=("A", "B"))
     parser.add_argument("--perturbation", default="none",
                         help="the perturbation whose episodes are paired, or `all` (default: none)")
@@ -38,19 +41,18 @@ def main() -> None:
     parser.add_argument("--out", default="", help="result file (default: FOLDER/paired_A_vs_B.json)")
     args = parser.parse_args()
     started = time.time()
-    path = Path(args.folder) / "episodes.jsonl"
-    other = Path(args.against) / "episodes.jsonl" if args.against else path
-    for wanted in {path, other}:
-        if not wanted.is_file():
-            sys.exit(f"error: {wanted} does not exist: pass a folder written by `bimanualshift bench` or `study`")
+    path, other = Path(args.folder), Path(args.against or args.folder)
+    files, other_files = episode_logs(path), episode_logs(other)
     a, b = args.methods
     # a task's key is "task" for one perturbation, "task (perturbation)" for all of them
     success: dict[tuple[int, str, int], bool] = {}  # (0 for A / 1 for B, task, seed): A and B may share a name
     perturbations = set()
     if a == b and other == path:
         sys.exit(f"error: --methods names {a} twice: compare two methods, or one with its run in --against")
-    records = [(row, 0) for row in read_records(path)]  # a line cut short by a study still writing is skipped
-    records += [(row, 1) for row in read_records(other)] if other != path else [(row, 1) for row, _ in records]
+    # a line cut short by a study still writing is skipped
+    records = [(row, 0) for file in files for row in read_records(file)]
+    records += ([(row, 1) for file in other_files for row in read_records(file)] if other != path
+                else [(row, 1) for row, _ in records])
     for row, side in records:
         perturbation = row.get("perturbation", "none")
         perturbations.add(perturbation)
@@ -81,14 +83,26 @@ def main() -> None:
     for row in rows:
         print(f"{row['task']}: {row['pairs']} pairs, {a} wins {row[f'{a}_wins']}, {b} wins {row[f'{b}_wins']}, "
               f"p = {row['p_value']}")
-    out = args.out or str(Path(args.folder) / f"paired_{a}_vs_{b}.json")
+    out = args.out or str(path / f"paired_{a}_vs_{b}.json")
     command = invoked_command()
     write_result(out, command, seeds, started, rows,
-                 notes=f"episodes of {path}{f' ({b}: {other})' if other != path else ''} (perturbation "
+                 notes=f"episodes of {', '.join(map(str, files))}"
+                       f"{f' ({b}: ' + ', '.join(map(str, other_files)) + ')' if other != path else ''} (perturbation "
                        f"{args.perturbation}) where both methods ran the seed; "
                        "wins: episodes one method solved and "
                        "the other did not; p: exact two-sided sign test")
     print(f"wrote {out}")
+
+
+def episode_logs(folder: Path) -> list[Path]:
+    """The folder's ``episodes.jsonl``, or, for a study folder, each of its subfolders' (exits naming the folder)."""
+    if (folder / "episodes.jsonl").is_file():
+        return [folder / "episodes.jsonl"]
+    logs = sorted(folder.glob("*/episodes.jsonl"))
+    if not logs:
+        sys.exit(f"error: {folder} holds no episodes.jsonl, nor do its subfolders: pass a folder written by "
+                 "`bimanualshift bench` or `study`")
+    return logs
 
 
 def _row(a: str, b: str, flags_a: list[bool], flags_b: list[bool]) -> dict[str, float | int]:

@@ -79,3 +79,19 @@ def test_one_methods_two_runs(tmp_path: Path) -> None:
     assert (row["pairs"], row["a_wins"], row["a@rerun_wins"]) == (3, 2, 0)  # f's a solved all three, rerun's one
     same = _run(str(tmp_path / "f"), "--methods", "a", "a")
     assert same.returncode != 0 and "twice" in same.stderr
+
+
+def test_a_study_folder_pairs_every_task_group(tmp_path: Path) -> None:
+    for group, task, b_flags in (("simple", "s", [0, 0, 1]), ("complex", "c", [1, 1, 1])):
+        rows = [{"task": task, "method": method, "seed": seed, "success": bool(f)}
+                for method, flags in (("a", [1, 1, 1]), ("b", b_flags)) for seed, f in enumerate(flags)]
+        (tmp_path / "study" / group).mkdir(parents=True)
+        (tmp_path / "study" / group / "episodes.jsonl").write_text("".join(json.dumps(r) + "\n" for r in rows))
+    done = _run(str(tmp_path / "study"), "--methods", "a", "b")
+    assert done.returncode == 0, done.stderr
+    result = json.loads((tmp_path / "study" / "paired_a_vs_b.json").read_text())
+    rows = {r["task"]: r for r in result["rows"]}
+    assert (rows["s"]["a_wins"], rows["c"]["a_wins"], rows["all"]["pairs"], rows["all"]["a_wins"]) == (2, 0, 6, 2)
+    (tmp_path / "empty" / "sub").mkdir(parents=True)
+    empty = _run(str(tmp_path / "empty"), "--methods", "a", "b")
+    assert empty.returncode != 0 and "subfolders" in empty.stderr and "Traceback" not in empty.stderr
