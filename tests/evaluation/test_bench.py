@@ -356,6 +356,16 @@ def test_records_of_runs_no_longer_on_disk_are_carried_from_the_earlier_summary(
     assert carried_records(summary, "refinement", {}, episodes) == {}
 
 
+def test_refined_rows_without_a_refinement_record_are_named() -> None:
+    from bimanualshift.evaluation.bench import refinement_missing
+
+    episodes = [{"task": "t", "method": m, "seed": s} for m in ("bimanualshift", "no_refinement", "peract_lf")
+                for s in (0, 1)]
+    # only the refined method owes a record; the unrefined ablation and the baseline have no refinement stage
+    assert refinement_missing({}, episodes) == ["t/bimanualshift"]
+    assert refinement_missing({"t/bimanualshift": {"scenes": 20}}, episodes) == []
+
+
 def test_memory_variants_share_the_full_method_s_training_and_refine_in_folders_of_their_own(tmp_path: Path) -> None:
     from bimanualshift.evaluation.bench import refinement_records
 

@@ -214,6 +214,14 @@ def carried_records(summary: Path, field: str, fresh: dict[str, dict[str, Any]],
     return dict(sorted({**kept, **fresh}.items()))
 
 
+def refinement_missing(refinement: dict[str, dict[str, Any]], episodes: list[dict[str, Any]]) -> list[str]:
+    """The "task/method" pairs of refined methods whose episodes are in the folder but whose refinement record is
+    not: their run is in no runs/ here and no earlier summary kept it (tabulated on another machine before the
+    records were committed). The summary names them instead of leaving a silent gap."""
+    refined = {f"{e['task']}/{e['method']}" for e in episodes if e["method"] in METHODS and METHODS[e["method"]].refine}
+    return sorted(refined - set(refinement))
+
+
 def run_bench_episode(job: BenchJob) -> dict[str, Any]:
     """One test episode in a worker (environments and loaded policies are cached per process)."""
     import torch
@@ -410,9 +418,12 @@ def run_bench(cfg: BenchConfig, command: str | None = None) -> Path:
     recorded_episodes = read_episodes(log)
     recorded = seeds if cfg.evaluate_on == "test" else {
         "train": seeds["train"], "validation": seeds["validation"], "validation_rollouts": seeds["test"]}
+    refinement = carried_records(out / "summary.json", "refinement", refinement_records(cfg, tasks), recorded_episodes)
+    if missing := refinement_missing(refinement, recorded_episodes):
+        print(f"[bench] no refinement record for {', '.join(missing)}: their runs are not under {cfg.runs} and no "
+              "earlier summary.json here kept them (listed as refinement_missing)")
     write_result(out / "summary.json", command, recorded, started, rows, bench=True, config=asdict(cfg),
-                 refinement=carried_records(out / "summary.json", "refinement", refinement_records(cfg, tasks),
-                                            recorded_episodes),
+                 refinement=refinement, refinement_missing=missing,
                  training=carried_records(out / "summary.json", "training", training_records(cfg, tasks),
                                           recorded_episodes),
                  methods={m: METHODS[m].description for m in cfg.methods},
