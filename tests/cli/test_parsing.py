@@ -50,3 +50,12 @@ def test_earlier_flag_spellings_still_parse() -> None:
     with pytest.raises(SystemExit) as exc:
         parse(Example, ["--switch", "maybe"], "p", "d")
     assert exc.value.code == 2
+
+
+def test_study_flags_override_only_what_is_given() -> None:
+    from bimanualshift.cli.evaluate import StudyArgs
+
+    args = parse(StudyArgs, ["table1", "--episodes", "100", "--tasks", "lift_ball", "--recorded-only"], "p", "a")
+    assert (args.name, args.recorded_only) == ("table1", True)
+    given = {k: v for k, v in vars(args.overrides).items() if v is not None}
+    assert given == {"episodes": 100, "tasks": ["lift_ball"]}

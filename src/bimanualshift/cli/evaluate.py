@@ -83,13 +83,17 @@ StudyOverrides.__module__ = __name__
 
 @dataclass
 class StudyArgs:
-    name: Annotated[Literal[STUDIES], tyro.conf.Positional]  # type: ignore[valid-type]  # the study to run
+    # (the help is given explicitly: a trailing comment here would carry the type checker's marker into --help)
+    name: Annotated[Literal[STUDIES], tyro.conf.Positional,  # type: ignore[valid-type]
+                    tyro.conf.arg(help="the study to run")]
     results: str = "results"  # where results/<study>/ goes
     # tabulate only the methods whose every episode is recorded (in every run of their group; a run with none,
     # e.g. a backbone not yet benchmarked, is left out): nothing trains or rolls out, so a half-finished study
     # gives its finished rows
     recorded_only: bool = False
-    overrides: StudyOverrides = field(default_factory=StudyOverrides)
+    overrides: Annotated[StudyOverrides, tyro.conf.arg(  # type: ignore[valid-type]
+        help="bench flags that override every run of the study; unset, each run keeps the study's own setting "
+             "(their meanings: `bimanualshift bench --help`)")] = field(default_factory=StudyOverrides)
 
 
 def study(args: StudyArgs) -> None:
