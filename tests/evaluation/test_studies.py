@@ -153,3 +153,28 @@ def test_recorded_only_leaves_out_a_study_run_not_yet_recorded(tmp_path: Path, m
     assert {r["run"] for r in summary["rows"]} == {"prior rvt_suite"}
     assert [r["success"] for r in summary["rows"] if r["task"] == "average"] == [1.0]
     assert not (tmp_path / "runs").exists() and not (tmp_path / "data").exists()
+
+
+def test_status_counts_recorded_rollouts_per_task_and_method_and_writes_nothing(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
+    import json
+
+    from bimanualshift.cli import main
+    from bimanualshift.data.seeds import split_seeds
+    from bimanualshift.evaluation.studies import TABLE1_TASKS, study_status
+
+    monkeypatch.chdir(tmp_path)
+    seeds = split_seeds("test", 3)
+    folder = tmp_path / "results" / "table1" / "complex_tasks"
+    folder.mkdir(parents=True)
+    lines = [{"task": TABLE1_TASKS[0], "method": "peract_lf", "seed": s, "success": True} for s in seeds[:2]]
+    lines.append({"task": TABLE1_TASKS[0], "method": "peract_lf", "seed": 999, "success": True})  # not a planned seed
+    (folder / "episodes.jsonl").write_text("".join(json.dumps(e) + "\n" for e in lines))
+    rows = study_status("table1", {"episodes": 3, "methods": ["bimanualshift", "peract_lf"]})
+    cells = {(r["task"], r["method"]): (r["recorded"], r["planned"]) for r in rows}
+    assert len(rows) == 12 and cells[(TABLE1_TASKS[0], "peract_lf")] == (2, 3)
+    assert cells[(TABLE1_TASKS[0], "bimanualshift")] == (0, 3) and cells[(TABLE1_TASKS[4], "peract_lf")] == (0, 3)
+    before = sorted(p.relative_to(tmp_path) for p in tmp_path.rglob("*"))
+    main(["study", "table1", "--status", "--episodes", "3", "--methods", "bimanualshift", "peract_lf"])
+    assert "2 of 36 rollouts recorded" in capsys.readouterr().out
+    assert sorted(p.relative_to(tmp_path) for p in tmp_path.rglob("*")) == before  # nothing trained or written

@@ -91,6 +91,9 @@ class StudyArgs:
     # e.g. a backbone not yet benchmarked, is left out): nothing trains or rolls out, so a half-finished study
     # gives its finished rows
     recorded_only: bool = False
+    # print how much of the study is recorded (per run folder, task and method: rollouts recorded / planned) and
+    # stop: nothing trains, rolls out or is written
+    status: bool = False
     overrides: Annotated[StudyOverrides, tyro.conf.arg(  # type: ignore[valid-type]
         help="bench flags that override every run of the study; unset, each run keeps the study's own setting "
              "(their meanings: `bimanualshift bench --help`)")] = field(default_factory=StudyOverrides)
@@ -101,6 +104,12 @@ def study(args: StudyArgs) -> None:
 
     overrides = {f.name: getattr(args.overrides, f.name) for f in fields(args.overrides)
                  if getattr(args.overrides, f.name) is not None}
+    if args.status:
+        from bimanualshift.evaluation.studies import study_status
+        from bimanualshift.evaluation.tables import print_study_status
+
+        print_study_status(study_status(args.name, overrides, args.results), args.name)
+        return
     print(f"wrote {run_study(args.name, overrides, args.results, args.recorded_only)}")
 
 

@@ -342,6 +342,16 @@ def recorded_methods(cfg: BenchConfig) -> list[str]:
     return [m for m in cfg.methods if _all_recorded(done, m, tasks, cfg.perturbations, seeds)]
 
 
+def recorded_counts(cfg: BenchConfig) -> dict[tuple[str, str], tuple[int, int]]:
+    """Per (task, method) of the run: its rollouts (perturbation, test seed) in ``episodes.jsonl`` and planned."""
+    from bimanualshift.sim.task import resolve_task_names
+
+    done = {_key(e) for e in read_episodes(Path(cfg.out) / "episodes.jsonl")}
+    seeds, planned = bench_seeds(cfg)["test"], len(bench_seeds(cfg)["test"]) * len(cfg.perturbations)
+    return {(t, m): (sum((t, m, p, s) in done for p in cfg.perturbations for s in seeds), planned)
+            for t in resolve_task_names(cfg.tasks) for m in cfg.methods}
+
+
 def run_bench(cfg: BenchConfig, command: str | None = None) -> Path:
     from bimanualshift.data.collect import collect
     from bimanualshift.evaluation.report import write_result

@@ -16,7 +16,7 @@ from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any
 
-from bimanualshift.evaluation.bench import BenchConfig, average_row, recorded_methods, run_bench
+from bimanualshift.evaluation.bench import BenchConfig, average_row, recorded_counts, recorded_methods, run_bench
 from bimanualshift.evaluation.plots import draw_plots
 from bimanualshift.evaluation.tables import bench_table, stage_table, targets_table
 from bimanualshift.evaluation.targets import study_targets
@@ -155,6 +155,15 @@ def recorded_plan(plan: list[tuple[str, BenchConfig]]) -> list[tuple[str, BenchC
         raise ValueError("no method has every episode of this study recorded yet; run it without --recorded-only")
     return [(label, replace(cfg, methods=[m for m in cfg.methods if m in complete[label]])) for label, cfg in plan
             if complete[label]]
+
+
+def study_status(name: str, overrides: dict[str, Any] | None = None, root: str = "results"
+                 ) -> list[dict[str, Any]]:
+    """How much of the study is recorded: per run folder, task and method, the rollouts in its ``episodes.jsonl``
+    against those planned. Reads the committed episode logs only, so it works on a fresh clone."""
+    return [{"run": label, "out": cfg.out, "task": task, "method": method, "recorded": done, "planned": planned}
+            for label, cfg in study_plan(name, overrides, root)
+            for (task, method), (done, planned) in recorded_counts(cfg).items()]
 
 
 def run_study(name: str, overrides: dict[str, Any] | None = None, root: str = "results",

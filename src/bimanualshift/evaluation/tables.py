@@ -236,6 +236,28 @@ def print_success_table(rows: list[dict[str, Any]], title: str) -> None:
     Console().print(table)
 
 
+def print_study_status(rows: list[dict[str, Any]], name: str) -> None:
+    """One table per run folder: a row per method, a column per task, each cell recorded/planned rollouts."""
+    for out in dict.fromkeys(r["out"] for r in rows):
+        mine = [r for r in rows if r["out"] == out]
+        tasks = list(dict.fromkeys(r["task"] for r in mine))
+        table = Table(title=f"study {name}: {out} (recorded / planned rollouts)")
+        table.add_column("method")
+        for task in tasks:
+            table.add_column(task, justify="right")
+        for method in dict.fromkeys(r["method"] for r in mine):
+            cells = {r["task"]: r for r in mine if r["method"] == method}
+            table.add_row(method, *(_status_cell(cells[t]) for t in tasks))
+        Console().print(table)
+    done, planned = sum(r["recorded"] for r in rows), sum(r["planned"] for r in rows)
+    print(f"{done} of {planned} rollouts recorded")
+
+
+def _status_cell(row: dict[str, Any]) -> str:
+    text = f"{row['recorded']}/{row['planned']}"
+    return f"[green]{text}[/green]" if row["recorded"] == row["planned"] else text
+
+
 def print_projection_quality(rows: list[dict[str, Any]]) -> None:
     table = Table(title="arm-conditioned projection: voxels kept (own arm + goal) / removed (other arm)")
     for col in ("task", "segmenter", "arm", "kept", "removed", "keyframes"):
