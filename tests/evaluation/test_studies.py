@@ -178,3 +178,25 @@ def test_status_counts_recorded_rollouts_per_task_and_method_and_writes_nothing(
     main(["study", "table1", "--status", "--episodes", "3", "--methods", "bimanualshift", "peract_lf"])
     assert "2 of 36 rollouts recorded" in capsys.readouterr().out
     assert sorted(p.relative_to(tmp_path) for p in tmp_path.rglob("*")) == before  # nothing trained or written
+
+
+def test_table1_pairs_the_full_method_with_each_row_on_the_tabulated_scenes(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    import json
+
+    from bimanualshift.data.seeds import split_seeds
+    from bimanualshift.evaluation.studies import TABLE1_TASKS, run_study
+
+    monkeypatch.chdir(tmp_path)
+    seeds = split_seeds("test", 2)
+    for half, tasks in (("complex_tasks", TABLE1_TASKS[:3]), ("simpler_tasks", TABLE1_TASKS[3:])):
+        folder = tmp_path / "results" / "table1" / half
+        folder.mkdir(parents=True)
+        # the full method solves every first seed, peract_lf every second one; a seed beyond the table is ignored
+        lines = [{"task": t, "method": m, "seed": s, "success": (s == seeds[0]) == (m == "bimanualshift"),
+                  "keyframes": 3} for m in ("bimanualshift", "peract_lf") for t in tasks for s in [*seeds, 7]]
+        (folder / "episodes.jsonl").write_text("".join(json.dumps(e) + "\n" for e in lines))
+    summary = json.loads(run_study("table1", {"episodes": 2, "videos": 0}, "results", recorded_only=True).read_text())
+    assert summary["paired"] == {"peract_lf": {"scenes": 12, "full_wins": 6, "method_wins": 6, "p_value": 1.0}}
+    best = next(t for t in summary["targets"] if t["target"] == "≥ the best baseline")
+    assert "paired: 6 to 6 scenes, p = 1" in best["measured"]

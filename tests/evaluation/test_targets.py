@@ -73,3 +73,23 @@ def test_a_baseline_registered_by_a_plugin_joins_the_best_baseline_target() -> N
         assert best["met"] is False and best["measured"].startswith("62 % vs my_lab_baseline 70 %")
     finally:
         del METHODS["my_lab_baseline"]
+
+
+def test_paired_counts_scenes_each_solved_that_the_other_did_not() -> None:
+    from bimanualshift.evaluation.targets import paired_with_full
+
+    def ep(method: str, seed: int, ok: bool, task: str = "t") -> dict:
+        return {"task": task, "method": method, "seed": seed, "success": ok}
+
+    episodes = [ep("bimanualshift", s, s < 6) for s in range(8)] + [ep("peract_lf", s, s >= 4) for s in range(8)]
+    episodes += [ep("peract_lf", 99, True), ep("no_projection", 0, False, task="other")]  # no partner scene
+    paired = paired_with_full(episodes)
+    assert paired["peract_lf"] == {"scenes": 8, "full_wins": 4, "method_wins": 2, "p_value": 0.6875}
+    assert "no_projection" not in paired  # nothing to pair with
+    rows = [avg("bimanualshift", 0.65), avg("peract_lf", 0.64), avg("no_refinement", 0.67)]
+    targets = {t["target"]: t for t in table1_targets(rows, {**paired, "no_refinement": {
+        "scenes": 600, "full_wins": 22, "method_wins": 31, "p_value": 0.2717}})}
+    best = targets["≥ the best baseline"]
+    assert best["met"] is True and "65 % vs peract_lf 64 %; paired: 4 to 2 scenes, p = 0.69" in best["measured"]
+    assert "paired: 22 to 31 scenes, p = 0.27" in targets["no_refinement below the full method"]["measured"]
+    assert "paired" not in {t["target"]: t for t in table1_targets(rows)}["≥ the best baseline"]["measured"]

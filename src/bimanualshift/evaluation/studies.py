@@ -19,7 +19,7 @@ from typing import Any
 from bimanualshift.evaluation.bench import BenchConfig, average_row, recorded_counts, recorded_methods, run_bench
 from bimanualshift.evaluation.plots import draw_plots
 from bimanualshift.evaluation.tables import bench_table, stage_table, targets_table
-from bimanualshift.evaluation.targets import study_targets
+from bimanualshift.evaluation.targets import paired_with_full, study_targets
 from bimanualshift.registry import methods_with_role
 from bimanualshift.sim.perturbations import PRESETS
 from bimanualshift.sim.task import TASK_GROUPS, resolve_task_names
@@ -157,6 +157,17 @@ def recorded_plan(plan: list[tuple[str, BenchConfig]]) -> list[tuple[str, BenchC
             if complete[label]]
 
 
+def tabulated_episodes(cfg: BenchConfig) -> list[dict[str, Any]]:
+    """The run's episodes that its table counts: its methods and tasks, on its test seeds and perturbations."""
+    from bimanualshift.evaluation.bench import bench_seeds, read_episodes
+
+    methods, tasks = set(cfg.methods), set(resolve_task_names(cfg.tasks))
+    perturbations, seeds = set(cfg.perturbations), set(bench_seeds(cfg)["test"])
+    return [e for e in read_episodes(Path(cfg.out) / "episodes.jsonl")
+            if e["method"] in methods and e["task"] in tasks and e["seed"] in seeds
+            and e.get("perturbation", "none") in perturbations]
+
+
 def study_status(name: str, overrides: dict[str, Any] | None = None, root: str = "results"
                  ) -> list[dict[str, Any]]:
     """How much of the study is recorded: per run folder, task and method, the rollouts in its ``episodes.jsonl``
@@ -174,7 +185,7 @@ def run_study(name: str, overrides: dict[str, Any] | None = None, root: str = "r
 
     started = time.time()
     command = " ".join(["bimanualshift study", *(shlex.quote(a) for a in sys.argv[2:])])
-    runs, seeds, configs = [], {}, []
+    runs, seeds, configs, episodes = [], {}, [], []
     plan = study_plan(name, overrides, root)
     for label, cfg in recorded_plan(plan) if recorded_only else plan:
         summary = run_bench(cfg, command=f"{command}  # run: {label}")
@@ -182,13 +193,18 @@ def run_study(name: str, overrides: dict[str, Any] | None = None, root: str = "r
         seeds = {**seeds, **{f"{label} {k}": v for k, v in result["seeds"].items()}}
         runs.append((label, result["rows"]))
         configs.append({"run": label, **asdict(cfg)})
-    rows = combined_rows(runs, labelled=len({label for label, _ in plan}) > 1)
+        episodes += tabulated_episodes(cfg)
+    labelled = len({label for label, _ in plan}) > 1
+    rows = combined_rows(runs, labelled=labelled)
     out = Path(root) / name
     out.mkdir(parents=True, exist_ok=True)
-    targets = study_targets(name, rows)
+    # the full method against every other row on the same scenes (one group of runs only: runs of several groups,
+    # e.g. 5 and 30 demos, are not the same scenes' contest)
+    paired = {} if labelled else paired_with_full(episodes)
+    targets = study_targets(name, rows, paired)
     atomic_write_text(out / "table.md", "\n".join([bench_table(rows), stage_table(rows), targets_table(targets)]))
     draw_plots(out, rows, f"study {name}")
     return write_result(out / "summary.json", command, seeds, started, rows, bench=True, study=name, runs=configs,
-                        targets=targets,
+                        targets=targets, paired=paired,
                         notes="rows carry the run they come from; each run's own folder has its episodes and "
                               "videos; wall time covers this invocation only")

@@ -151,7 +151,8 @@ def table_for(result: dict[str, Any]) -> str:
     if result.get("bench"):
         from bimanualshift.evaluation.targets import study_targets
 
-        targets = study_targets(result.get("study", ""), result["rows"])  # derived from the rows, never stored alone
+        # derived from the rows (and the stored paired counts), never stored alone
+        targets = study_targets(result.get("study", ""), result["rows"], result.get("paired"))
         parts = [bench_table(result["rows"]), stage_table(result["rows"]), targets_table(targets)]
         return "\n".join([*(p for p in parts if p), _footer(result)]) + "\n"
     if "prior" in first and "tasks" in first:

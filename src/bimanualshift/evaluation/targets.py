@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from bimanualshift.evaluation.stats import paired_sign_test
 from bimanualshift.registry import methods_with_role
 
 FULL = "bimanualshift"
@@ -33,7 +34,35 @@ def _pct(x: float) -> str:
     return f"{100 * x:.0f} %"
 
 
-def table1_targets(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
+def paired_with_full(episodes: list[dict[str, Any]]) -> dict[str, dict[str, Any]]:
+    """Every other method against the full method on the scenes (task, perturbation, seed) both ran: the scenes
+    each solved that the other did not, and the exact two-sided sign test's p. A difference in averages is only
+    read as one where p is small."""
+    success = {(e["method"], e["task"], e.get("perturbation", "none"), e["seed"]): bool(e["success"])
+               for e in episodes}
+    full = {key[1:]: ok for key, ok in success.items() if key[0] == FULL}
+    out = {}
+    for method in dict.fromkeys(key[0] for key in success if key[0] != FULL):
+        scenes = sorted(k for k in full if (method, *k) in success)
+        if scenes:
+            test = paired_sign_test([full[k] for k in scenes], [success[(method, *k)] for k in scenes])
+            out[method] = {"scenes": test.pairs, "full_wins": test.a_wins, "method_wins": test.b_wins,
+                           "p_value": round(test.p_value, 4)}
+    return out
+
+
+def _paired_note(paired: dict[str, dict[str, Any]], method: str) -> str:
+    """"; paired: 107 to 99 scenes, p = 0.63" (the full method's wins first), or nothing when not paired."""
+    if method not in paired:
+        return ""
+    p = paired[method]
+    return f"; paired: {p['full_wins']} to {p['method_wins']} scenes, p = {p['p_value']:.2g}"
+
+
+def table1_targets(rows: list[dict[str, Any]], paired: dict[str, dict[str, Any]] | None = None
+                   ) -> list[dict[str, Any]]:
+    """Table I's targets from the rows; ``paired`` (``paired_with_full``) adds the paired reading where it exists."""
+    paired = paired or {}
     avg = _averages(rows)
     full = avg.get(FULL)
     if full is None:
@@ -45,7 +74,8 @@ def table1_targets(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
     if ran:
         best = max(ran, key=ran.get)  # type: ignore[arg-type]
         note = f"; {', '.join(missing)} not in this run" if missing else ""
-        out.append(_target("≥ the best baseline", f"{_pct(full)} vs {best} {_pct(ran[best])}{note}",
+        out.append(_target("≥ the best baseline",
+                           f"{_pct(full)} vs {best} {_pct(ran[best])}{_paired_note(paired, best)}{note}",
                            full >= ran[best]))
     else:
         out.append(_target("≥ the best baseline", "no baseline in this run", None))
@@ -70,7 +100,8 @@ def table1_targets(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
         out.append(_target("≥ 10 points above AnyBimanual-style", "anybimanual not in this run", None))
     for ablation in methods_with_role("ablation"):
         if ablation in avg:
-            out.append(_target(f"{ablation} below the full method", f"{_pct(avg[ablation])} vs {_pct(full)}",
+            out.append(_target(f"{ablation} below the full method",
+                               f"{_pct(avg[ablation])} vs {_pct(full)}{_paired_note(paired, ablation)}",
                                avg[ablation] < full))
         else:
             out.append(_target(f"{ablation} below the full method", f"{ablation} not in this run", None))
@@ -103,10 +134,10 @@ def few_shot_targets(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
     return [_target(name, f"{_pct(five)} vs 0.75 × {_pct(thirty)} = {_pct(0.75 * thirty)}", five >= 0.75 * thirty)]
 
 
-STUDY_TARGETS = {"table1": table1_targets, "few_shot": few_shot_targets}
-
-
-def study_targets(study: str, rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
-    return STUDY_TARGETS[study](rows) if study in STUDY_TARGETS else []
+def study_targets(study: str, rows: list[dict[str, Any]], paired: dict[str, dict[str, Any]] | None = None
+                  ) -> list[dict[str, Any]]:
+    if study == "table1":
+        return table1_targets(rows, paired)
+    return few_shot_targets(rows) if study == "few_shot" else []
 
 
