@@ -56,7 +56,8 @@ def _paired_note(paired: dict[str, dict[str, Any]], method: str) -> str:
     if method not in paired:
         return ""
     p = paired[method]
-    return f"; paired: {p['full_wins']} to {p['method_wins']} scenes, p = {p['p_value']:.2g}"
+    value = "p < 0.001" if p["p_value"] < 0.001 else f"p = {p['p_value']:.2g}"
+    return f"; paired: {p['full_wins']} to {p['method_wins']} scenes, {value}"
 
 
 def table1_targets(rows: list[dict[str, Any]], paired: dict[str, dict[str, Any]] | None = None
