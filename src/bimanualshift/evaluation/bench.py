@@ -333,23 +333,25 @@ def _all_recorded(done: set[tuple[str, str, str, int]], method: str, tasks: list
     return bool(seeds) and all((t, method, p, s) in done for t in tasks for p in perturbations for s in seeds)
 
 
-def recorded_methods(cfg: BenchConfig) -> list[str]:
-    """The run's methods whose every rollout (task, perturbation, seed) is already in its ``episodes.jsonl``."""
-    from bimanualshift.sim.task import resolve_task_names
-
-    done = {_key(e) for e in read_episodes(Path(cfg.out) / "episodes.jsonl")}
-    tasks, seeds = resolve_task_names(cfg.tasks), bench_seeds(cfg)["test"]
-    return [m for m in cfg.methods if _all_recorded(done, m, tasks, cfg.perturbations, seeds)]
-
-
 def recorded_counts(cfg: BenchConfig) -> dict[tuple[str, str], tuple[int, int]]:
     """Per (task, method) of the run: its rollouts (perturbation, test seed) in ``episodes.jsonl`` and planned."""
     from bimanualshift.sim.task import resolve_task_names
 
     done = {_key(e) for e in read_episodes(Path(cfg.out) / "episodes.jsonl")}
-    seeds, planned = bench_seeds(cfg)["test"], len(bench_seeds(cfg)["test"]) * len(cfg.perturbations)
+    seeds = bench_seeds(cfg)["test"]
+    planned = len(seeds) * len(cfg.perturbations)
     return {(t, m): (sum((t, m, p, s) in done for p in cfg.perturbations for s in seeds), planned)
             for t in resolve_task_names(cfg.tasks) for m in cfg.methods}
+
+
+def recorded_methods(cfg: BenchConfig) -> list[str]:
+    """The run's methods whose every rollout (task, perturbation, seed) is already in its ``episodes.jsonl``; none
+    with no test seeds (``--episodes 0`` asks for training only)."""
+    if not bench_seeds(cfg)["test"]:
+        return []
+    counts = recorded_counts(cfg)
+    return [m for m in cfg.methods if all(done == planned for (_, method), (done, planned) in counts.items()
+                                          if method == m)]
 
 
 def run_bench(cfg: BenchConfig, command: str | None = None) -> Path:
