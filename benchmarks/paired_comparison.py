@@ -24,7 +24,7 @@ import time
 from pathlib import Path
 
 from bimanualshift.evaluation.report import invoked_command, write_result
-from bimanualshift.evaluation.stats import paired_sign_test
+from bimanualshift.evaluation.stats import pair_by_scene, paired_sign_test
 from bimanualshift.utils.jsonl import read_records
 from bimanualshift.utils.pipes import quiet_on_closed_pipe
 
@@ -45,7 +45,8 @@ def main() -> None:
     files, other_files = episode_logs(path), episode_logs(other)
     a, b = args.methods
     # a task's key is "task" for one perturbation, "task (perturbation)" for all of them
-    success: dict[tuple[int, str, int], bool] = {}  # (0 for A / 1 for B, task, seed): A and B may share a name
+    # A's and B's outcome per (task, seed), kept apart: A and B may share a name
+    success: tuple[dict[tuple[str, int], bool], dict[tuple[str, int], bool]] = ({}, {})
     perturbations = set()
     if a == b and other == path:
         sys.exit(f"error: --methods names {a} twice: compare two methods, or one with its run in --against")
@@ -58,28 +59,23 @@ def main() -> None:
         perturbations.add(perturbation)
         if row["method"] == (a, b)[side] and args.perturbation in ("all", perturbation):
             task = row["task"] if args.perturbation != "all" else f"{row['task']} ({perturbation})"
-            success[(side, task, int(row["seed"]))] = bool(row["success"])
-    if not success and args.perturbation not in perturbations:
+            success[side][(task, int(row["seed"]))] = bool(row["success"])
+    if not any(success) and args.perturbation not in perturbations:
         sys.exit(f"error: no episode of perturbation {args.perturbation!r} in {path}; it holds "
                  f"{', '.join(sorted(perturbations))} (or pass --perturbation all)")
     if a == b:  # one method's two runs: B is named by its folder in the result
         b = f"{b}@{Path(args.against).name}"
-    tasks = sorted({task for side, task, _ in success if side == 0})
-    rows, seeds, flags_a, flags_b = [], {}, [], []
-    for task in tasks:
-        common = sorted(seed for side, t, seed in success if side == 0 and t == task and (1, task, seed) in success)
-        if not common:
-            continue
-        seeds[task] = common
-        task_a, task_b = [success[(0, task, s)] for s in common], [success[(1, task, s)] for s in common]
-        flags_a += task_a
-        flags_b += task_b
-        rows.append({"task": task, **_row(a, b, task_a, task_b)})
+    rows, seeds = [], {}
+    for task in sorted({task for task, _ in success[0]}):
+        pairs, task_a, task_b = pair_by_scene({k: ok for k, ok in success[0].items() if k[0] == task}, success[1])
+        if pairs:
+            seeds[task] = [seed for _, seed in pairs]
+            rows.append({"task": task, **_row(a, b, task_a, task_b)})
     if not rows:
         sys.exit(f"error: {a} and {b} share no seed in {path}{f' and {other}' if other != path else ''}: check the "
                  "method names")
     # "all" pools every row's pairs: the sign test counts a seed once per task and perturbation
-    rows.append({"task": "all", **_row(a, b, flags_a, flags_b)})
+    rows.append({"task": "all", **_row(a, b, *pair_by_scene(*success)[1:])})
     for row in rows:
         print(f"{row['task']}: {row['pairs']} pairs, {a} wins {row[f'{a}_wins']}, {b} wins {row[f'{b}_wins']}, "
               f"p = {row['p_value']}")

@@ -29,3 +29,15 @@ def test_paired_sign_test_counts_disagreements_and_matches_the_binomial_tail() -
     assert paired_sign_test([True, False], [True, False]).p_value == 1.0  # no disagreement: no evidence
     with pytest.raises(ValueError, match="same count"):
         paired_sign_test([True], [True, False])
+
+
+def test_pair_by_scene_keeps_the_scenes_both_ran_in_order() -> None:
+    from bimanualshift.evaluation.stats import pair_by_scene
+
+    a = {("lift_ball", "none", 3): True, ("lift_ball", "none", 1): False, ("pick_up_plate", "none", 1): True}
+    b = {("lift_ball", "none", 1): True, ("lift_ball", "none", 3): True, ("lift_ball", "none", 7): False}
+    scenes, flags_a, flags_b = pair_by_scene(a, b)
+    assert scenes == [("lift_ball", "none", 1), ("lift_ball", "none", 3)]  # a scene only one side ran is left out
+    assert (flags_a, flags_b) == ([False, True], [True, True])
+    assert pair_by_scene({10: True, 9: False}, {9: True, 10: True})[0] == [9, 10]  # seeds sort as numbers
+    assert pair_by_scene({1: True}, {2: True}) == ([], [], [])

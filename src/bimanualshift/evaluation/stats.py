@@ -4,9 +4,11 @@ and the success row every result file holds."""
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, TypeVar
+
+Scene = TypeVar("Scene", int, tuple[Any, ...])  # a seed, or (task, perturbation, seed)
 
 
 def wilson_interval(successes: int, trials: int, z: float = 1.959964) -> tuple[float, float]:
@@ -42,6 +44,13 @@ def paired_sign_test(a: Iterable[bool], b: Iterable[bool]) -> PairedComparison:
     n, k = a_wins + b_wins, min(a_wins, b_wins)
     tail = sum(math.comb(n, i) for i in range(k + 1)) / 2 ** n if n else 0.5
     return PairedComparison(len(a), a_wins, b_wins, min(1.0, 2 * tail))
+
+
+def pair_by_scene(a: Mapping[Scene, bool], b: Mapping[Scene, bool]) -> tuple[list[Scene], list[bool], list[bool]]:
+    """The scenes (a seed, or a task, perturbation and seed) both methods ran, sorted, and each method's outcomes on
+    them in that order: what ``paired_sign_test`` compares. A scene only one method ran carries no paired evidence."""
+    scenes = sorted(scene for scene in a if scene in b)
+    return scenes, [bool(a[s]) for s in scenes], [bool(b[s]) for s in scenes]
 
 
 @dataclass(frozen=True)

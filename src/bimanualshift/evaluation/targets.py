@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from bimanualshift.evaluation.stats import paired_sign_test
+from bimanualshift.evaluation.stats import pair_by_scene, paired_sign_test
 from bimanualshift.registry import methods_with_role
 
 FULL = "bimanualshift"
@@ -38,14 +38,16 @@ def paired_with_full(episodes: list[dict[str, Any]]) -> dict[str, dict[str, Any]
     """Every other method against the full method on the scenes (task, perturbation, seed) both ran: the scenes
     each solved that the other did not, and the exact two-sided sign test's p. A difference in averages is only
     read as one where p is small."""
-    success = {(e["method"], e["task"], e.get("perturbation", "none"), e["seed"]): bool(e["success"])
-               for e in episodes}
-    full = {key[1:]: ok for key, ok in success.items() if key[0] == FULL}
+    by_method: dict[str, dict[tuple[Any, ...], bool]] = {}
+    for e in episodes:
+        scene = (e["task"], e.get("perturbation", "none"), int(e["seed"]))
+        by_method.setdefault(e["method"], {})[scene] = bool(e["success"])
+    full = by_method.get(FULL, {})
     out = {}
-    for method in dict.fromkeys(key[0] for key in success if key[0] != FULL):
-        scenes = sorted(k for k in full if (method, *k) in success)
-        if scenes:
-            test = paired_sign_test([full[k] for k in scenes], [success[(method, *k)] for k in scenes])
+    for method, success in by_method.items():
+        scenes, full_flags, method_flags = pair_by_scene(full, success)
+        if method != FULL and scenes:
+            test = paired_sign_test(full_flags, method_flags)
             out[method] = {"scenes": test.pairs, "full_wins": test.a_wins, "method_wins": test.b_wins,
                            "p_value": round(test.p_value, 4)}
     return out
