@@ -45,8 +45,10 @@ def paired_with_full(episodes: list[dict[str, Any]]) -> dict[str, dict[str, Any]
     full = by_method.get(FULL, {})
     out = {}
     for method, success in by_method.items():
+        if method == FULL:
+            continue
         scenes, full_flags, method_flags = pair_by_scene(full, success)
-        if method != FULL and scenes:
+        if scenes:
             test = paired_sign_test(full_flags, method_flags)
             out[method] = {"scenes": test.pairs, "full_wins": test.a_wins, "method_wins": test.b_wins,
                            "p_value": round(test.p_value, 4)}
