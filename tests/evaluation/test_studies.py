@@ -200,3 +200,52 @@ def test_table1_pairs_the_full_method_with_each_row_on_the_tabulated_scenes(
     assert summary["paired"] == {"peract_lf": {"scenes": 12, "full_wins": 6, "method_wins": 6, "p_value": 1.0}}
     best = next(t for t in summary["targets"] if t["target"] == "≥ the best baseline")
     assert "paired: 6 to 6 scenes, p = 1" in best["measured"]
+
+
+def _record_table1(root: Path, recorded: dict[str, tuple[str, ...]], seeds: list[int]) -> None:
+    """Write Table I's two halves' episode logs: every seed of each method's tasks, the first seed a success."""
+    import json
+
+    from bimanualshift.evaluation.studies import TABLE1_TASKS
+
+    for half, tasks in (("complex_tasks", TABLE1_TASKS[:3]), ("simpler_tasks", TABLE1_TASKS[3:])):
+        folder = root / "results" / "table1" / half
+        folder.mkdir(parents=True, exist_ok=True)
+        lines = [{"task": t, "method": m, "seed": s, "success": s == seeds[0], "keyframes": 3}
+                 for m, done in recorded.items() for t in tasks if t in done for s in seeds]
+        (folder / "episodes.jsonl").write_text("".join(json.dumps(e) + "\n" for e in lines))
+
+
+def test_a_command_running_part_of_table1_tabulates_every_recorded_task_and_method(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    import json
+
+    from bimanualshift.data.seeds import split_seeds
+    from bimanualshift.evaluation.studies import TABLE1_TASKS, run_study
+
+    monkeypatch.chdir(tmp_path)
+    _record_table1(tmp_path, {"bimanualshift": TABLE1_TASKS, "peract_lf": TABLE1_TASKS}, split_seeds("test", 2))
+    part = {"episodes": 2, "videos": 0, "tasks": ["lift_ball"], "methods": ["peract_lf"]}
+    summary = json.loads(run_study("table1", part, "results").read_text())
+    assert {(r["task"], r["method"]) for r in summary["rows"]} == {
+        (t, m) for t in (*TABLE1_TASKS, "average") for m in ("bimanualshift", "peract_lf")}
+    assert summary["paired"]["peract_lf"]["scenes"] == 12  # the whole table's scenes, not lift ball's 2
+    for half, tasks in (("complex_tasks", TABLE1_TASKS[:3]), ("simpler_tasks", TABLE1_TASKS[3:])):
+        rows = json.loads((tmp_path / "results" / "table1" / half / "summary.json").read_text())["rows"]
+        assert {r["task"] for r in rows} == {*tasks, "average"}  # the other half too, not lift ball alone
+    assert "push two buttons" in (tmp_path / "results" / "table1" / "simpler_tasks" / "table.md").read_text()
+    assert not (tmp_path / "runs").exists() and not (tmp_path / "data").exists()
+
+
+def test_a_part_of_table1_keeps_its_own_table_while_no_method_is_recorded_on_every_task(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    import json
+
+    from bimanualshift.data.seeds import split_seeds
+    from bimanualshift.evaluation.studies import run_study
+
+    monkeypatch.chdir(tmp_path)
+    _record_table1(tmp_path, {"peract_lf": ("lift_ball",)}, split_seeds("test", 2))
+    part = {"episodes": 2, "videos": 0, "tasks": ["lift_ball"], "methods": ["peract_lf"]}
+    summary = json.loads(run_study("table1", part, "results").read_text())
+    assert [(r["task"], r["method"], r["success"]) for r in summary["rows"]] == [("lift_ball", "peract_lf", 0.5)]

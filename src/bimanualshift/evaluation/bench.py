@@ -354,7 +354,9 @@ def recorded_methods(cfg: BenchConfig) -> list[str]:
                                           if method == m)]
 
 
-def run_bench(cfg: BenchConfig, command: str | None = None) -> Path:
+def run_bench(cfg: BenchConfig, command: str | None = None, started: float | None = None) -> Path:
+    """Run (or resume) one benchmark folder: collect, train, roll out what is not recorded, then write its table,
+    plots and summary. ``started`` (default: now) is when the invocation began, for the summary's wall time."""
     from bimanualshift.data.collect import collect
     from bimanualshift.evaluation.report import write_result
     from bimanualshift.evaluation.tables import print_success_table
@@ -362,7 +364,7 @@ def run_bench(cfg: BenchConfig, command: str | None = None) -> Path:
 
     if cfg.executor not in EXECUTORS:  # before any training, not after it
         raise ValueError(f"--executor {cfg.executor!r} is not one of {', '.join(EXECUTORS)}")
-    started = time.time()
+    started = started or time.time()
     command = command or " ".join(["bimanualshift bench", *(shlex.quote(a) for a in sys.argv[2:])])
     tasks = resolve_task_names(cfg.tasks)
     single = [t for t in tasks if t not in task_names(bimanual=True)]

@@ -123,7 +123,7 @@ def study_plan(name: str, overrides: dict[str, Any] | None = None, root: str = "
     runs = study_runs(name, root)
     chosen = overrides.pop("tasks", None)
     planned_tasks = [t for _, cfg in runs for t in cfg.tasks]
-    partition = len(runs) > 1 and len(planned_tasks) == len(set(planned_tasks))
+    partition = _partitioned(runs)
     if chosen is not None and partition:
         unknown = [t for t in chosen if t not in planned_tasks and t not in TASK_GROUPS]
         chosen = resolve_task_names(chosen)
@@ -140,6 +140,26 @@ def study_plan(name: str, overrides: dict[str, Any] | None = None, root: str = "
         cfg = replace(planned, **overrides)
         plan.append((label.replace(f"{planned.demos} demos", f"{cfg.demos} demos"), cfg))
     return plan
+
+
+def whole_study_plan(name: str, overrides: dict[str, Any] | None = None, root: str = "results"
+                     ) -> list[tuple[str, BenchConfig]]:
+    """The plan the study's table covers when a command runs part of it: every run's planned tasks where
+    ``--tasks`` picks among Table I's halves, and the study's methods plus any ``--methods`` adds. Its other
+    overrides (episodes, demos, results folder) stay, so the table is the same study's."""
+    overrides = dict(overrides or {})
+    added = overrides.pop("methods", None) or []
+    tasks = overrides.pop("tasks", None)
+    if tasks is not None and not _partitioned(study_runs(name, root)):
+        overrides["tasks"] = tasks  # --tasks replaced the study's tasks: that is the study asked for
+    return [(label, replace(cfg, methods=list(dict.fromkeys([*cfg.methods, *added]))))
+            for label, cfg in study_plan(name, overrides, root)]
+
+
+def _partitioned(runs: list[tuple[str, BenchConfig]]) -> bool:
+    """Whether the runs split the study's tasks between them (Table I's halves)."""
+    planned_tasks = [t for _, cfg in runs for t in cfg.tasks]
+    return len(runs) > 1 and len(planned_tasks) == len(set(planned_tasks))
 
 
 
@@ -180,15 +200,36 @@ def study_status(name: str, overrides: dict[str, Any] | None = None, root: str =
 def run_study(name: str, overrides: dict[str, Any] | None = None, root: str = "results",
               recorded_only: bool = False) -> Path:
     """Run (or resume) every run of the study, then its combined table, plots and targets. ``recorded_only``
-    tabulates the methods whose episodes are all recorded, and nothing more."""
+    tabulates the methods whose episodes are all recorded, and nothing more.
+
+    A command that runs part of the study (``--tasks`` among Table I's halves, ``--methods``) tabulates the whole
+    study as ``recorded_only`` would, with what it has just recorded, so the study's tables never shrink to that
+    part; while no method is recorded on every task, the part's own table stands."""
     from bimanualshift.evaluation.report import write_result
 
     started = time.time()
     command = " ".join(["bimanualshift study", *(shlex.quote(a) for a in sys.argv[2:])])
-    runs, seeds, configs, episodes = [], {}, [], []
     plan = study_plan(name, overrides, root)
-    for label, cfg in recorded_plan(plan) if recorded_only else plan:
-        summary = run_bench(cfg, command=f"{command}  # run: {label}")
+    whole = whole_study_plan(name, overrides, root)
+    tabulated = recorded_plan(plan) if recorded_only else plan
+    ran: dict[str, Path] = {}  # run folder -> its summary, from this command's part
+    begun: dict[str, float] = {}  # run folder -> when this command's part began it (its summary's wall time)
+    if whole != plan:
+        if not recorded_only:
+            for label, cfg in plan:
+                begun[cfg.out] = time.time()
+                ran[cfg.out] = run_bench(cfg, command=f"{command}  # run: {label}")
+        try:
+            tabulated, ran = recorded_plan(whole), {}
+        except ValueError:
+            print(f"[study] {name}: no method is recorded on every task yet; its table shows this command's part")
+        else:
+            print(f"[study] {name}: tabulating every method recorded on all of its tasks, not this command's part "
+                  "alone")
+    runs, seeds, configs, episodes = [], {}, [], []
+    for label, cfg in tabulated:
+        summary = ran.get(cfg.out) or run_bench(cfg, command=f"{command}  # run: {label}",
+                                                started=begun.get(cfg.out))
         result = json.loads(summary.read_text())
         seeds = {**seeds, **{f"{label} {k}": v for k, v in result["seeds"].items()}}
         runs.append((label, result["rows"]))
