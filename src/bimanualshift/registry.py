@@ -210,6 +210,10 @@ register_method(_residual_method(
     "arms moved or hid them (compare with no_refinement on validation seeds)", refine=False, retrieval=True,
     goal_at_start=True))
 register_method(_residual_method(
+    "augment_32", "variant: the full method before refinement trained on 32 augmented copies of every demo keyframe "
+    "instead of 8 (more of the same shifts; compare with no_refinement on validation seeds)", refine=False,
+    retrieval=True, augment_copies=32))
+register_method(_residual_method(
     "keyframe_gate", "variant: goal_extremities with the output gate's factors chosen per keyframe (compare with "
     "no_refinement and goal_extremities on validation seeds)", refine=False, retrieval=True, goal_extremities=True,
     gate_per_keyframe=True, **EARLIER_TRAINING))
