@@ -214,6 +214,10 @@ register_method(_residual_method(
     "instead of 8 (more of the same shifts; compare with no_refinement on validation seeds)", refine=False,
     retrieval=True, augment_copies=32))
 register_method(_residual_method(
+    "augment_wide", "variant: the full method before refinement trained on augmented copies shifted by up to 10 cm "
+    "instead of 4 (more scene layouts than the demos show; compare with no_refinement on validation seeds)",
+    refine=False, retrieval=True, augment_translation_m=0.10))
+register_method(_residual_method(
     "keyframe_gate", "variant: goal_extremities with the output gate's factors chosen per keyframe (compare with "
     "no_refinement and goal_extremities on validation seeds)", refine=False, retrieval=True, goal_extremities=True,
     gate_per_keyframe=True, **EARLIER_TRAINING))
