@@ -249,3 +249,15 @@ def test_a_part_of_table1_keeps_its_own_table_while_no_method_is_recorded_on_eve
     part = {"episodes": 2, "videos": 0, "tasks": ["lift_ball"], "methods": ["peract_lf"]}
     summary = json.loads(run_study("table1", part, "results").read_text())
     assert [(r["task"], r["method"], r["success"]) for r in summary["rows"]] == [("lift_ball", "peract_lf", 0.5)]
+
+
+def test_the_whole_study_keeps_every_planned_task_and_method_and_adds_a_method_the_command_names() -> None:
+    from bimanualshift.evaluation.studies import TABLE1_METHODS, TABLE1_TASKS, whole_study_plan
+
+    part = {"episodes": 100, "tasks": ["lift_ball"], "methods": ["augment_32", "peract_lf"]}
+    whole = whole_study_plan("table1", part, "results")
+    assert [cfg.tasks for _, cfg in whole] == [list(TABLE1_TASKS[:3]), list(TABLE1_TASKS[3:])]
+    assert all(cfg.methods == [*TABLE1_METHODS, "augment_32"] and cfg.episodes == 100 for _, cfg in whole)
+    # where --tasks replaces a study's tasks (no halves), the study asked for is that one
+    few_shot = whole_study_plan("few_shot", {"tasks": ["lift_ball"]}, "results")
+    assert all(cfg.tasks == ["lift_ball"] for _, cfg in few_shot)
