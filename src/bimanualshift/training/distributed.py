@@ -10,6 +10,7 @@ checkpoints, validation and the best model; every rank resumes from the same new
 
 from __future__ import annotations
 
+import atexit
 import os
 from dataclasses import dataclass
 
@@ -62,7 +63,15 @@ def init_distributed() -> Distributed:
         if backend == "nccl":
             torch.cuda.set_device(int(os.environ.get("LOCAL_RANK", "0")))
         dist.init_process_group(backend=backend)
+        # Gloo's worker threads must stop while the interpreter is still whole: a process that exits with the
+        # group up can abort in its teardown ("terminate called without an active exception").
+        atexit.register(_destroy_process_group)
     return Distributed(dist.get_rank(), dist.get_world_size())
+
+
+def _destroy_process_group() -> None:
+    if dist.is_initialized():
+        dist.destroy_process_group()
 
 
 class LossModule(nn.Module):
