@@ -110,6 +110,20 @@ def test_long_horizon_continues_each_task_from_the_one_before(tmp_path: object) 
         _request(cfg, "buttons_then_lift_ball", "peract_lf")
 
 
+def _record_table1(root: Path, recorded: dict[str, tuple[str, ...]], seeds: list[int]) -> None:
+    """Write Table I's two halves' episode logs: every seed of each method's tasks, the first seed a success."""
+    import json
+
+    from bimanualshift.evaluation.studies import TABLE1_TASKS
+
+    for half, tasks in (("complex_tasks", TABLE1_TASKS[:3]), ("simpler_tasks", TABLE1_TASKS[3:])):
+        folder = root / "results" / "table1" / half
+        folder.mkdir(parents=True, exist_ok=True)
+        lines = [{"task": t, "method": m, "seed": s, "success": s == seeds[0], "keyframes": 3}
+                 for m, done in recorded.items() for t in tasks if t in done for s in seeds]
+        (folder / "episodes.jsonl").write_text("".join(json.dumps(e) + "\n" for e in lines))
+
+
 def test_recorded_only_tabulates_the_methods_recorded_on_every_task_and_runs_nothing(
         tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     import json
@@ -118,14 +132,8 @@ def test_recorded_only_tabulates_the_methods_recorded_on_every_task_and_runs_not
     from bimanualshift.evaluation.studies import TABLE1_TASKS, run_study
 
     monkeypatch.chdir(tmp_path)  # the study's runs/ and data/ are relative: nothing may appear there
-    seeds = split_seeds("test", 2)
-    recorded = {"bimanualshift": TABLE1_TASKS, "peract_lf": TABLE1_TASKS[:3]}  # peract_lf: the long tasks only
-    for half, tasks in (("complex_tasks", TABLE1_TASKS[:3]), ("simpler_tasks", TABLE1_TASKS[3:])):
-        folder = tmp_path / "results" / "table1" / half
-        folder.mkdir(parents=True)
-        lines = [{"task": t, "method": m, "seed": s, "success": s == seeds[0], "keyframes": 3}
-                 for m, done in recorded.items() for t in tasks if t in done for s in seeds]
-        (folder / "episodes.jsonl").write_text("".join(json.dumps(e) + "\n" for e in lines))
+    # peract_lf: the long tasks only
+    _record_table1(tmp_path, {"bimanualshift": TABLE1_TASKS, "peract_lf": TABLE1_TASKS[:3]}, split_seeds("test", 2))
     summary = json.loads(run_study("table1", {"episodes": 2, "videos": 0}, "results", recorded_only=True).read_text())
     averages = {r["method"]: r for r in summary["rows"] if r["task"] == "average"}
     assert set(averages) == {"bimanualshift"} and averages["bimanualshift"]["success"] == 0.5
@@ -200,20 +208,6 @@ def test_table1_pairs_the_full_method_with_each_row_on_the_tabulated_scenes(
     assert summary["paired"] == {"peract_lf": {"scenes": 12, "full_wins": 6, "method_wins": 6, "p_value": 1.0}}
     best = next(t for t in summary["targets"] if t["target"] == "≥ the best baseline")
     assert "paired: 6 to 6 scenes, p = 1" in best["measured"]
-
-
-def _record_table1(root: Path, recorded: dict[str, tuple[str, ...]], seeds: list[int]) -> None:
-    """Write Table I's two halves' episode logs: every seed of each method's tasks, the first seed a success."""
-    import json
-
-    from bimanualshift.evaluation.studies import TABLE1_TASKS
-
-    for half, tasks in (("complex_tasks", TABLE1_TASKS[:3]), ("simpler_tasks", TABLE1_TASKS[3:])):
-        folder = root / "results" / "table1" / half
-        folder.mkdir(parents=True, exist_ok=True)
-        lines = [{"task": t, "method": m, "seed": s, "success": s == seeds[0], "keyframes": 3}
-                 for m, done in recorded.items() for t in tasks if t in done for s in seeds]
-        (folder / "episodes.jsonl").write_text("".join(json.dumps(e) + "\n" for e in lines))
 
 
 def test_a_command_running_part_of_table1_tabulates_every_recorded_task_and_method(
