@@ -3,16 +3,20 @@
     .venv/bin/python benchmarks/server_fuzz.py --per-class 100 --out results/server_fuzz.json
 
 The server runs in its own process (a crash is the process dying or refusing connections), serving the shipped
-frozen prior on a real push_two_buttons observation. Every case (``deploy.malformed``: ten classes, ``per-class``
-each) goes over one authenticated connection; a wrong-token case opens its own connection. A case passes when
-the reply is a structured error (a JSON text frame with code, field and message; for a wrong token an HTTP 401
-at the handshake) and a valid request on the same connection right after it is served.
+frozen prior on a real push_two_buttons observation. Every case (``deploy.malformed``: fourteen classes,
+``per-class`` each) goes over one authenticated connection; a wrong-token case opens its own connection. A case
+passes when the reply is a structured error (a JSON text frame with code, field and message; for a wrong token an
+HTTP 401 at the handshake) and a valid request on the same connection right after it is served. A token-file case
+starts another `bimanualshift serve` on 0.0.0.0 with a token file of that mode: it passes when the command refuses
+to start, says `chmod 600` and prints no traceback.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import subprocess
+import sys
 import tempfile
 import time
 from collections import Counter
@@ -26,6 +30,28 @@ from bimanualshift.deploy.process import ServerProcess
 from bimanualshift.deploy.sim_robot import first_observation_message
 from bimanualshift.evaluation.report import invoked_command, write_result
 from bimanualshift.utils.pipes import quiet_on_closed_pipe
+
+
+def refused_token_file(tmp: Path, token: str, mode: int | None, prior: str) -> str:
+    """'' when `serve` with a token file of ``mode`` refuses to start with a clear message, else the problem."""
+    path = tmp / f"token_{mode:o}"
+    path.write_text(token)
+    path.chmod(mode or 0)
+    try:
+        done = subprocess.run([sys.executable, "-m", "bimanualshift.cli", "serve", "--prior", prior, "--method",
+                               "no_residual", "--host", "0.0.0.0", "--port", "0", "--token-file", str(path)],
+                              capture_output=True, text=True, timeout=60)
+    except subprocess.TimeoutExpired:
+        return "serve started and served"
+    finally:
+        path.chmod(0o600)
+        path.unlink()
+    said = done.stdout + done.stderr
+    if done.returncode == 0:
+        return "serve started"
+    if "Traceback (most recent call last)" in said or "chmod 600" not in said:
+        return f"unclear refusal: {said.strip()[-200:]}"
+    return ""
 
 
 def main() -> None:
@@ -58,7 +84,9 @@ def main() -> None:
             counts[case.kind] += 1
             problem = ""
             try:
-                if case.kind == "wrong_token":
+                if case.kind == "token_file_mode":
+                    problem = refused_token_file(Path(tmp), token, case.mode, args.prior)
+                elif case.kind == "wrong_token":
                     try:
                         PolicyClient(url, case.token, retries=0)
                         problem = "a wrong key was accepted"

@@ -43,9 +43,11 @@ class CountingPolicy:
 
 def valid_message(episode: str = "ep-0", keyframe: int = 0, side: int = 8) -> dict[str, Any]:
     rng = np.random.default_rng(keyframe)
-    k = np.array([[10.0, 0, side / 2], [0, 10.0, side / 2], [0, 0, 1]])
+    # two cameras 1.5 m above the table looking straight down, 90 degrees across: together they see the table top
+    k = np.array([[side / 2, 0, side / 2], [0, side / 2, side / 2], [0, 0, 1]])
+    down = np.array([[1.0, 0, 0, 0], [0, -1, 0, 0], [0, 0, -1, 2.3], [0, 0, 0, 1]])
     cameras = {name: {"rgb": rng.integers(0, 255, (side, side, 3), dtype=np.uint8),
-                      "depth": np.full((side, side), 1.0, np.float32), "intrinsics": k, "extrinsics": np.eye(4),
+                      "depth": np.full((side, side), 1.0, np.float32), "intrinsics": k, "extrinsics": down,
                       "instance": np.zeros((side, side), np.int16), "class": np.zeros((side, side), np.int16)}
                for name in ("front", "overhead")}
     arms = {arm: {"pose": np.array([0.1, y, 1.0, 0, 0, 0, 1], np.float32), "gripper_open": 1.0,

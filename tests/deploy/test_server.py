@@ -5,16 +5,23 @@ from __future__ import annotations
 
 import json
 import threading
+from collections.abc import Iterator
+from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import TOKEN, valid_message
+from conftest import TOKEN, CountingPolicy, valid_message
 from openpi_client.websocket_client_policy import WebsocketClientPolicy
 from websockets.sync.client import connect
 
+from bimanualshift.cli.deploy import read_token
 from bimanualshift.deploy.client import PolicyClient, ServerError, ServerUnavailable
-from bimanualshift.deploy.malformed import CLASSES, corpus
+from bimanualshift.deploy.malformed import CHECKPOINT_CLASSES, CLASSES, corpus
+from bimanualshift.deploy.served_policy import ServedPolicy
 from bimanualshift.deploy.server import PolicyServer, ServerConfig, check_bind
+
+# what any server refuses from the message alone; the checkpoint's classes need its ``ServedPolicy.check``
+MESSAGE_CLASSES = tuple(c for c in CLASSES if c not in CHECKPOINT_CLASSES and c != "token_file_mode")
 
 
 def test_openpi_client_gets_metadata_actions_and_errors(server: PolicyServer) -> None:
@@ -59,10 +66,10 @@ def test_health_check(server: PolicyServer) -> None:
         assert response.status == 200 and json.loads(response.read())["status"] == "ok"
 
 
-@pytest.mark.parametrize("kind", CLASSES)
+@pytest.mark.parametrize("kind", MESSAGE_CLASSES)
 def test_each_malformed_class_gets_a_structured_error_and_the_connection_stays_usable(
         server: PolicyServer, kind: str) -> None:
-    cases = [c for c in corpus(valid_message(), 4, 256 * 1024, TOKEN, seed=1) if c.kind == kind]
+    cases = list(corpus(valid_message(), 4, 256 * 1024, TOKEN, seed=1, classes=(kind,)))
     client = PolicyClient(f"ws://127.0.0.1:{server.port}", TOKEN)
     for i, case in enumerate(cases):
         if case.kind == "wrong_token":
@@ -132,3 +139,55 @@ def test_a_failing_policy_answers_without_a_traceback() -> None:
             client.infer(valid_message())
     finally:
         srv.stop()
+
+
+@pytest.fixture
+def checked_server() -> Iterator[PolicyServer]:
+    """A server that knows its checkpoint: two arms in order, keyframes up to 49, views that must see the table."""
+    served = ServedPolicy(CountingPolicy(), {"checkpoint": "counting", "cameras": {"trained_with": ["front"]}},
+                          needs_maps=False)
+    srv = PolicyServer(served.policy, served.metadata, ServerConfig(port=0, token=TOKEN), check=served.check)
+    srv.start_background()
+    yield srv
+    srv.stop()
+
+
+@pytest.mark.parametrize("kind", CHECKPOINT_CLASSES)
+def test_what_the_checkpoint_cannot_act_on_gets_a_structured_error_naming_the_field(
+        checked_server: PolicyServer, kind: str) -> None:
+    cases = list(corpus(valid_message(), 12, 256 * 1024, TOKEN, seed=2, max_keyframe=49, classes=(kind,)))
+    client = PolicyClient(f"ws://127.0.0.1:{checked_server.port}", TOKEN)
+    fields = {"keyframe_bound": "keyframe", "blind_views": "cameras", "foreign_arms": "arms"}[kind]
+    for i, case in enumerate(cases):
+        client._ws.send(case.frame)
+        reply = client._ws.recv(timeout=10)
+        assert isinstance(reply, str), f"{case.description}: answered with an action"
+        error = json.loads(reply)["error"]
+        assert error["field"].startswith(fields) and error["expected"] and "Traceback" not in reply, case.description
+        assert client.infer(valid_message(keyframe=i + 1))["action"].shape == (2, 9)
+    client.close()
+
+
+def test_the_last_keyframe_of_the_bound_and_cameras_of_any_name_are_served(checked_server: PolicyServer) -> None:
+    client = PolicyClient(f"ws://127.0.0.1:{checked_server.port}", TOKEN)
+    assert client.infer(valid_message(keyframe=49))["keyframe"] == 49
+    with pytest.raises(ServerError, match="keyframe") as err:
+        client.infer(valid_message(keyframe=2**63 - 1))
+    assert "0 to 49" in err.value.error["expected"]
+    renamed = valid_message(keyframe=1)
+    renamed["cameras"] = {"realsense_front": renamed["cameras"]["front"]}  # one calibrated view, another name
+    views = client.infer(renamed)["diagnostics"]["views"]
+    assert views["cameras"] == ["realsense_front"] and views["untrained_names"] == ["realsense_front"]
+    assert views["coverage"] >= 0.5
+    client.close()
+
+
+@pytest.mark.parametrize("mode", [0o644, 0o640, 0o604, 0o660, 0o606, 0o777])
+def test_a_token_file_other_users_can_read_or_change_is_refused(tmp_path: Path, mode: int) -> None:
+    path = tmp_path / "token"
+    path.write_text(TOKEN)
+    path.chmod(mode)
+    with pytest.raises(PermissionError, match=f"permissions {mode:04o}.*chmod 600"):
+        read_token(str(path))
+    path.chmod(0o600)
+    assert read_token(str(path)) == TOKEN

@@ -21,12 +21,14 @@ def read_token(path: str) -> str | None:
     if not file.is_file():
         raise FileNotFoundError(f"--token-file {path}: no such file (put a long random secret in it, e.g. "
                                 f"`python -c 'import secrets; print(secrets.token_urlsafe(32))' > {path}`)")
+    mode = file.stat().st_mode & 0o777
+    if mode & 0o077:  # as ssh refuses a private key others can read: the token is what guards the robot
+        raise PermissionError(f"--token-file {path}: permissions {mode:04o} let other users read or change the "
+                              f"secret; run `chmod 600 {path}` (owner read/write only) and start again")
     lines = file.read_text().strip().splitlines()
     token = lines[0].strip() if lines else ""
     if len(token) < 16:
         raise ValueError(f"--token-file {path}: the token must be at least 16 characters, it has {len(token)}")
-    if file.stat().st_mode & 0o077:
-        logging.getLogger("bimanualshift.serve").warning("%s is readable by other users (chmod 600 it)", path)
     return token
 
 

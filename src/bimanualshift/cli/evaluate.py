@@ -62,7 +62,12 @@ def evaluate(args: EvalArgs) -> None:
     rows = success_rows(records)
     print_success_table(rows, f"{' '.join(names)} ({args.split} seeds)")
     if args.out:
-        write_result(args.out, command_line(), {args.split: seeds}, started, rows)
+        # per seed its outcome and the digest of its actions: the same (checkpoint, task, seed) through `bench`,
+        # `study` or `serve` + `deploy` gives the same digest
+        episodes = [{"task": r.task, "method": r.method, "seed": r.seed, "success": r.success,
+                     "keyframes": r.keyframes, "stages_done": r.stages_done, "actions_sha256": r.actions_sha256}
+                    for r in records]
+        write_result(args.out, command_line(), {args.split: seeds}, started, rows, episodes=episodes)
         print(f"wrote {args.out}")
 
 

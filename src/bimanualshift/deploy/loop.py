@@ -10,13 +10,14 @@ import time
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
+import numpy as np
 from tqdm import tqdm
 
 from bimanualshift.deploy.client import PolicyClient, ServerError, ServerUnavailable
 from bimanualshift.deploy.robot import Calibration, action_dict, action_rows, observation_from_robot
 from bimanualshift.deploy.schema import action_from_reply, observation_message
 from bimanualshift.deploy.sim_robot import MujocoRobot
-from bimanualshift.rollout.loop import KEYFRAME_BUDGET
+from bimanualshift.rollout.loop import KEYFRAME_BUDGET, actions_digest
 
 
 @dataclass
@@ -31,6 +32,9 @@ class DeployedEpisode:
     executed: list[list[list[float]]] = field(default_factory=list)  # per keyframe the (arms, 9) rows sent
     round_trip_ms: list[float] = field(default_factory=list)
     diagnostics: list[dict[str, Any]] = field(default_factory=list)  # the server's per-keyframe policy log
+    # the policy's actions as the server sent them, digested as ``rollout`` digests its own (``actions_digest``):
+    # equal digests mean the robot was sent what the benchmark's episode on this seed executed, bit for bit
+    actions_sha256: str = ""
 
 
 def run_sim_episode(robot: MujocoRobot, client: PolicyClient, seed: int, max_keyframes: int = 0) -> DeployedEpisode:
@@ -40,6 +44,7 @@ def run_sim_episode(robot: MujocoRobot, client: PolicyClient, seed: int, max_key
     budget = KEYFRAME_BUDGET * robot.expert_keyframe_count()
     budget = min(budget, max_keyframes) if max_keyframes else budget
     record = DeployedEpisode(robot.task_name, seed, False, 0, 0)
+    replied: list[np.ndarray] = []
     for k in range(budget):
         reading = robot.get_observation()
         obs = observation_from_robot(robot, reading, context, k)
@@ -53,13 +58,15 @@ def run_sim_episode(robot: MujocoRobot, client: PolicyClient, seed: int, max_key
             break
         record.round_trip_ms.append(1e3 * (time.perf_counter() - started))
         record.diagnostics.append(reply.get("diagnostics", {}))
-        sent = robot.send_action(action_dict(action_from_reply(reply, list(robot.arm_names)), robot.arm_names))
+        replied.append(action_from_reply(reply, list(robot.arm_names)))
+        sent = robot.send_action(action_dict(replied[-1], robot.arm_names))
         record.executed.append(action_rows(sent, robot.arm_names).tolist())
         record.clipped += sum(bool(sent[f"{arm}_clipped"]) for arm in robot.arm_names)
         record.keyframes, record.stages_done = k + 1, robot.stages_done
         if robot.success or sent["truncated"]:
             break
     record.success = robot.success
+    record.actions_sha256 = actions_digest(replied)
     return record
 
 

@@ -4,7 +4,9 @@ few cases of each class.
 
 Classes: wrong dtypes, wrong shapes, NaN/inf values, truncated frames, garbage (random bytes, msgpack of the
 wrong structure, text frames), a wrong schema version, a missing field, oversized frames, bad UTF-8, and a
-wrong token (refused at the handshake).
+wrong token (refused at the handshake). Then what is well-formed but beyond the checkpoint: a keyframe past its
+episode bound, views that cannot see the workspace, arms it does not have; and a token file that other users can
+read (``serve`` must refuse to start).
 """
 
 from __future__ import annotations
@@ -20,7 +22,9 @@ import numpy as np
 from bimanualshift.deploy.codec import pack
 
 CLASSES = ("wrong_dtype", "wrong_shape", "nan_inf", "truncated", "garbage", "schema_version", "missing_field",
-           "oversized", "bad_utf8", "wrong_token")
+           "oversized", "bad_utf8", "wrong_token", "keyframe_bound", "blind_views", "foreign_arms", "token_file_mode")
+# the classes a server can only refuse by knowing its checkpoint (``ServedPolicy.check``)
+CHECKPOINT_CLASSES = ("keyframe_bound", "blind_views", "foreign_arms")
 
 
 @dataclass
@@ -29,6 +33,7 @@ class Case:
     description: str
     frame: bytes | str | None = None  # what is sent on an open connection (None: a wrong_token case)
     token: str | None = None  # wrong_token: the key this connection attempt sends (None: no header)
+    mode: int | None = None  # token_file_mode: the permission bits of the token file ``serve`` is started with
 
 
 def _array_fields(msg: dict[str, Any]) -> list[tuple[tuple[str, ...], np.ndarray]]:
@@ -209,16 +214,89 @@ def _wrong_token(rng: np.random.Generator, msg: dict[str, Any], token: str) -> C
                 None, bad)
 
 
-def corpus(valid: dict[str, Any], per_class: int, limit: int, token: str, seed: int = 0) -> Iterator[Case]:
-    """``per_class`` cases of every class, interleaved, from a valid observation message ``valid``; ``limit``
-    is the server's frame limit (oversized cases exceed it by up to 2x), ``token`` its real token."""
+def _keyframe_bound(rng: np.random.Generator, msg: dict[str, Any], max_keyframe: int) -> Case:
+    choice = rng.integers(4)
+    value = [max_keyframe + 1, 2**63 - 1, 2**64 - 1, int(rng.integers(max_keyframe + 2, 2**62))][choice]
+    return Case("keyframe_bound", f"keyframe = {value} (the bound is {max_keyframe})",
+                pack(_set(msg, ("keyframe",), value)))
+
+
+def _look(extrinsics: np.ndarray, how: str, rng: np.random.Generator) -> np.ndarray:
+    e = np.array(extrinsics, np.float64)
+    if how == "away":  # turned half a turn about its own x axis: the table is behind it
+        e[:3, :3] = e[:3, :3] @ np.diag([1.0, -1.0, -1.0])
+    elif how == "far":  # tens of metres off
+        e[:3, 3] += rng.uniform(20, 200) * rng.choice([-1, 1], 3)
+    elif how == "singular":  # no rotation at all
+        e[:3, :3] = 0.0
+    return e
+
+
+def _blind_views(rng: np.random.Generator, msg: dict[str, Any]) -> Case:
+    how = ["away", "far", "singular", "zoomed", "one wrist"][rng.integers(5)]
+    broken = copy.deepcopy(msg)
+    names = list(broken["cameras"])
+    if how == "one wrist":  # a single camera, pointed away: alone it sees none of the table
+        keep = names[rng.integers(len(names))]
+        cam = broken["cameras"][keep]
+        cam["extrinsics"] = _look(cam["extrinsics"], "away", rng)
+        broken["cameras"] = {f"cam_{rng.integers(1000)}": cam}
+        return Case("blind_views", f"only {keep}, renamed and turned away", pack(broken))
+    for name in names:
+        cam = broken["cameras"][name]
+        if how == "zoomed":  # a focal length a thousand times too long: a pinhole's view of a few millimetres
+            k = np.array(cam["intrinsics"], np.float64)
+            k[0, 0] *= 1000.0
+            k[1, 1] *= 1000.0
+            cam["intrinsics"] = k
+        else:
+            cam["extrinsics"] = _look(cam["extrinsics"], how, rng)
+    return Case("blind_views", f"every camera {how}", pack(broken))
+
+
+def _foreign_arms(rng: np.random.Generator, msg: dict[str, Any]) -> Case:
+    broken = copy.deepcopy(msg)
+    names = list(broken["arms"])
+    choice = rng.integers(4)
+    extra = ["middle", "third", "left2", "arm_2", "head"][rng.integers(5)]
+    if choice == 0:  # a third arm beside the two
+        broken["arms"][extra] = copy.deepcopy(broken["arms"][names[0]])
+        what = f"a third arm, arms.{extra}"
+    elif choice == 1:  # an arm under a name the checkpoint does not know
+        broken["arms"] = {extra if k == names[-1] else k: v for k, v in broken["arms"].items()}
+        what = f"arms.{names[-1]} renamed {extra}"
+    elif choice == 2:  # both arms, in the other order: each would get the other's arm index
+        broken["arms"] = dict(reversed(list(broken["arms"].items())))
+        what = "the arms in reverse order"
+    else:  # as many arms as the schema allows
+        for i in range(4 - len(names)):
+            broken["arms"][f"{extra}_{i}"] = copy.deepcopy(broken["arms"][names[0]])
+        what = "four arms"
+    return Case("foreign_arms", what, pack(broken))
+
+
+def _token_file_mode(rng: np.random.Generator) -> Case:
+    while True:  # owner read, and at least one bit for group or others
+        mode = 0o400 | int(rng.integers(0, 0o1000))
+        if mode & 0o077:
+            return Case("token_file_mode", f"token file mode {mode:04o}", mode=mode)
+
+
+def corpus(valid: dict[str, Any], per_class: int, limit: int, token: str, seed: int = 0,
+           max_keyframe: int = 49, classes: tuple[str, ...] = CLASSES) -> Iterator[Case]:
+    """``per_class`` cases of each of ``classes``, interleaved, from a valid observation message ``valid``;
+    ``limit`` is the server's frame limit (oversized cases exceed it by up to 2x), ``token`` its real token and
+    ``max_keyframe`` its checkpoint's last keyframe index (its metadata's ``max_keyframe``)."""
     rng = np.random.default_rng(seed)
     makers: dict[str, Callable[[], Case]] = {
         "wrong_dtype": lambda: _wrong_dtype(rng, valid), "wrong_shape": lambda: _wrong_shape(rng, valid),
         "nan_inf": lambda: _nan_inf(rng, valid), "truncated": lambda: _truncated(rng, valid),
         "garbage": lambda: _garbage(rng, valid), "schema_version": lambda: _schema_version(rng, valid),
         "missing_field": lambda: _missing_field(rng, valid), "oversized": lambda: _oversized(rng, valid, limit),
-        "bad_utf8": lambda: _bad_utf8(rng, valid), "wrong_token": lambda: _wrong_token(rng, valid, token)}
+        "bad_utf8": lambda: _bad_utf8(rng, valid), "wrong_token": lambda: _wrong_token(rng, valid, token),
+        "keyframe_bound": lambda: _keyframe_bound(rng, valid, max_keyframe),
+        "blind_views": lambda: _blind_views(rng, valid), "foreign_arms": lambda: _foreign_arms(rng, valid),
+        "token_file_mode": lambda: _token_file_mode(rng)}
     for _ in range(per_class):
-        for kind in CLASSES:
+        for kind in classes:
             yield makers[kind]()

@@ -33,6 +33,7 @@ from websockets.exceptions import ConnectionClosed
 from websockets.http11 import Request, Response
 
 from bimanualshift.core.policy import Policy
+from bimanualshift.core.threads import policy_threads
 from bimanualshift.deploy.codec import CodecError, pack, unpack
 from bimanualshift.deploy.schema import (
     SCHEMA_VERSION,
@@ -108,7 +109,8 @@ class PolicyServer:
     metadata: dict[str, Any]
     config: ServerConfig = field(default_factory=ServerConfig)
     # an observation the policy cannot read (a checkpoint that segments with the simulator's maps gets none)
-    check: Callable[[Any], None] | None = None
+    # (an accepted observation's checks may return a dict for the reply's diagnostics)
+    check: Callable[[Any], dict[str, Any] | None] | None = None
 
     def __post_init__(self) -> None:
         check_bind(self.config.host, self.config.token)
@@ -145,8 +147,7 @@ class PolicyServer:
             return error_frame("too_large", "message", f"at most {limit} bytes", f"{len(frame)} bytes")
         try:
             parsed = parse_observation(unpack(frame))
-            if self.check is not None:
-                self.check(parsed)
+            checked = self.check(parsed) if self.check is not None else None  # may describe what it accepted
         except CodecError as err:
             return error_frame("bad_frame", "message", "a msgpack frame of the observation schema", str(err))
         except SchemaError as err:
@@ -154,7 +155,8 @@ class PolicyServer:
         t1 = time.perf_counter()
         obs = parsed.observation
         try:
-            with self._policy_lock:
+            # one intra-op thread per op, as in every benchmark episode: the robot does what the benchmark measured
+            with self._policy_lock, policy_threads():
                 session.start_if_new(parsed.episode_id, obs.keyframe_index)
                 action = np.asarray(session.policy.act(obs), np.float32)
                 log_fn = getattr(session.policy, "keyframe_log", None)
@@ -172,6 +174,8 @@ class PolicyServer:
             log.error("policy returned %s", describe(action))
             return error_frame("internal", "policy", "finite (arms, 9) action rows", describe(action))
         timing = {"decode_ms": 1e3 * (t1 - t0), "infer_ms": 1e3 * (t2 - t1)}
+        if isinstance(checked, dict):
+            diagnostics = {**checked, **diagnostics}
         reply = reply_message(parsed.episode_id, obs.keyframe_index, obs.scene.arm_names, action, timing,
                               _plain(diagnostics))
         if chunk is not None:

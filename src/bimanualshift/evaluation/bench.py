@@ -240,7 +240,8 @@ def run_bench_episode(job: BenchJob) -> dict[str, Any]:
         write_video(job.video, record.frames)
     return {"task": job.task, "method": job.method, "perturbation": job.perturbation, "seed": job.seed,
             "success": record.success, "keyframes": record.keyframes, "budget": budget,
-            "stages_done": record.stages_done, "instruction": record.instruction, "steps": record.steps}
+            "stages_done": record.stages_done, "instruction": record.instruction,
+            "actions_sha256": record.actions_sha256, "steps": record.steps}
 
 
 def record_episode(out: Path, episode: dict[str, Any]) -> None:

@@ -74,12 +74,21 @@ def invoked_command(argv: list[str] | None = None) -> str:
     return shlex.join(["python", str(script), *argv[1:]])
 
 
+def threads() -> dict[str, Any]:
+    """The threads a result ran with: torch's intra-op count in the writing process (workers run on one), and the
+    count every policy forward pass is pinned to whatever the process's (``core.threads``)."""
+    from bimanualshift.core.threads import POLICY_THREADS
+
+    return {"process": torch.get_num_threads(), "policy_forward": POLICY_THREADS}
+
+
 def write_result(path: str | Path, command: str, seeds: dict[str, list[int]], started: float,
                  rows: list[dict[str, Any]], notes: str = "", **extra: Any) -> Path:
     atomic_write_json(path, {
         "command": command, "commit": git_commit(),
         "created": datetime.now(timezone.utc).isoformat(timespec="seconds"), "machine": machine(),
-        "seeds": seeds, "wall_time_s": round(time.time() - started, 1), "rows": rows, "notes": notes, **extra,
+        "seeds": seeds, "threads": threads(), "wall_time_s": round(time.time() - started, 1), "rows": rows,
+        "notes": notes, **extra,
     })
     return Path(path)
 

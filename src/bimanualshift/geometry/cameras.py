@@ -48,3 +48,21 @@ def project_world_points(points: np.ndarray, intrinsics: np.ndarray, extrinsics:
     z = np.clip(cam[..., 2:3], 1e-6, None)
     uv = (cam[..., :2] / z) * np.array([intrinsics[0, 0], intrinsics[1, 1]]) + intrinsics[:2, 2]
     return uv
+
+
+def view_coverage(low: np.ndarray, high: np.ndarray, intrinsics: np.ndarray, extrinsics: np.ndarray,
+                  image_size: tuple[int, int], samples: int = 7, near: float = 0.05, far: float = 5.0) -> float:
+    """The fraction of a world box (a ``samples``^3 lattice of points) that lies inside at least one camera's
+    image, between ``near`` and ``far`` metres in front of it (an RGB-D camera's range): what a set of views can
+    see of a workspace before anything occludes it.
+    ``intrinsics`` (N, 3, 3), ``extrinsics`` (N, 4, 4) camera-to-world, ``image_size`` (height, width)."""
+    axes = [np.linspace(lo, hi, samples) for lo, hi in zip(low, high)]
+    points = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
+    h, w = image_size
+    seen = np.zeros(len(points), bool)
+    for k, e in zip(intrinsics, extrinsics):
+        world_to_cam = np.linalg.inv(np.asarray(e, np.float64))
+        z = points @ world_to_cam[2, :3] + world_to_cam[2, 3]
+        u, v = project_world_points(points, np.asarray(k, np.float64), np.asarray(e, np.float64)).T
+        seen |= (z > near) & (z < far) & (u >= 0) & (u < w) & (v >= 0) & (v < h)
+    return float(seen.mean())

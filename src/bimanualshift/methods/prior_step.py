@@ -7,6 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
+from bimanualshift.core.threads import map_arms, policy_threads
 from bimanualshift.data.frames import KeyframeObservation
 from bimanualshift.encoders.text import TextEncoder
 from bimanualshift.geometry.frames import ArmFrame
@@ -88,23 +89,29 @@ class FrozenPriorStep:
                                                  strict=True)]
 
     def run(self, obs: KeyframeObservation) -> dict[str, ArmStep]:
-        per_arm = self.builder.build(obs)
-        frames = arm_frames(obs)
-        steps = {}
-        for arm in obs.scene.arm_names:
-            features = (chooser_features(per_arm[arm].goal, per_arm[arm].proprio, per_arm[arm].other_proprio)
-                        if self.instruction_chooser is not None else None)
-            asked = self.prior_texts([obs.instruction], features)[0]
-            text = self.embedding(asked)
-            proprio = self.prior.arm_proprio(per_arm[arm].proprio, obs.keyframe_index)
-            scene = self.prior.observation_input(per_arm[arm].voxels, per_arm[arm].points)
-            inputs = (torch.as_tensor(scene)[None], torch.as_tensor(proprio)[None], text)
-            out = self.prior.predict(*inputs)
-            if self.proposal_features:
-                out.proposal_features = self.prior.proposal_features(*inputs, out)
-            steps[arm] = ArmStep(frames[arm], proprio, per_arm[arm].other_proprio, out, per_arm[arm].goal,
-                                 "" if asked == obs.instruction else asked)
-        return steps
+        with policy_threads():  # the same bits whatever the process's thread count (core/threads.py)
+            per_arm = self.builder.build(obs)
+            frames = arm_frames(obs)
+            arms = obs.scene.arm_names
+            asked, proprio, inputs = {}, {}, []
+            for arm in arms:  # text embeddings are cached on this object: encoded here, not on the arms' threads
+                features = (chooser_features(per_arm[arm].goal, per_arm[arm].proprio, per_arm[arm].other_proprio)
+                            if self.instruction_chooser is not None else None)
+                asked[arm] = self.prior_texts([obs.instruction], features)[0]
+                text = self.embedding(asked[arm])
+                proprio[arm] = self.prior.arm_proprio(per_arm[arm].proprio, obs.keyframe_index)
+                scene = self.prior.observation_input(per_arm[arm].voxels, per_arm[arm].points)
+                inputs.append((torch.as_tensor(scene)[None], torch.as_tensor(proprio[arm])[None], text))
+            outs = map_arms(self._predict, inputs, concurrent=self.prior.concurrent_predict)
+        return {arm: ArmStep(frames[arm], proprio[arm], per_arm[arm].other_proprio, out, per_arm[arm].goal,
+                             "" if asked[arm] == obs.instruction else asked[arm])
+                for arm, out in zip(arms, outs, strict=True)}
+
+    def _predict(self, inputs: tuple[torch.Tensor, torch.Tensor, torch.Tensor]) -> PriorOutput:
+        out = self.prior.predict(*inputs)
+        if self.proposal_features:
+            out.proposal_features = self.prior.proposal_features(*inputs, out)
+        return out
 
 
 def world_action(frame: ArmFrame, position: np.ndarray, quat: np.ndarray, gripper_open: float,

@@ -80,6 +80,9 @@ class UnimanualPrior(nn.Module):
     # What ``predict``'s first input is: "voxels" (B, 4, S, S, S) occupancy + rgb, or "points" (B, P, 6) the arm's
     # (masked) point cloud, arm-frame xyz and rgb, P = ``config.num_points`` (see ``observation_input``).
     observation: ClassVar[str] = "voxels"
+    # Whether ``predict`` (and ``proposal_features``) may run for both arms at once on two threads: true where they
+    # change no state of the module (a diffusion prior's scheduler keeps its timesteps, so it runs the arms in turn)
+    concurrent_predict: ClassVar[bool] = False
 
     @property
     def cloud_points(self) -> int:

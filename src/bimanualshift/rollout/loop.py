@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import hashlib
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
@@ -10,6 +11,7 @@ import numpy as np
 from tqdm import tqdm
 
 from bimanualshift.core.policy import Policy
+from bimanualshift.core.threads import policy_threads
 from bimanualshift.data.frames import KeyframeObservation, scene_of_env
 
 if TYPE_CHECKING:  # the loop only calls the env's methods; importing it would import robosuite
@@ -34,6 +36,17 @@ class EpisodeRecord:
     # index on this seed, the stages reached, the poses reached, and what the policy logs itself
     # (``KeyframeLogging``).
     steps: list[dict[str, Any]] = field(default_factory=list, repr=False)
+    # SHA-256 (hex, first 16 digits) of every executed action's float32 bytes in order: two runs of an episode
+    # executed bit-identical actions exactly when their digests match (the logged actions are rounded)
+    actions_sha256: str = ""
+
+
+def actions_digest(actions: list[np.ndarray]) -> str:
+    """``EpisodeRecord.actions_sha256`` of a list of (arms, 9) action rows (the deployment loop uses it too)."""
+    digest = hashlib.sha256()
+    for action in actions:
+        digest.update(np.ascontiguousarray(action, np.float32).tobytes())
+    return digest.hexdigest()[:16]
 
 
 def _rounded(rows: np.ndarray) -> list[list[float]]:
@@ -77,10 +90,12 @@ def rollout(env: ManipulationEnv, policy: Policy, seed: int, max_keyframes: int,
     plan = [env.action_from_keyframe(kf) for kf in env.expert_keyframes()]
     policy.reset()
     frames = [obs["cameras"][record_camera]["rgb"]] if record_camera else []
-    success, stages_done, steps = False, 0, []
+    success, stages_done, steps, actions = False, 0, [], []
     for k in range(max_keyframes):
         frame = KeyframeObservation.from_env(obs, scene)
-        action = act(k, frame) if act is not None else policy.act(frame)
+        with policy_threads():  # an episode's outcome must not depend on the process's thread count
+            action = act(k, frame) if act is not None else policy.act(frame)
+        actions.append(np.array(action, np.float32))
         obs, _, success, truncated, info = env.step(action)
         stages_done = int(info["stages_done"])
         steps.append(keyframe_row(k, action, plan[k] if k < len(plan) else None, stages_done, policy,
@@ -90,7 +105,7 @@ def rollout(env: ManipulationEnv, policy: Policy, seed: int, max_keyframes: int,
         if success or truncated:
             break
     return EpisodeRecord(policy.name, env.task.name, seed, bool(success), env.keyframe_index,
-                         env.task.instruction(), frames, stages_done, steps)
+                         env.task.instruction(), frames, stages_done, steps, actions_digest(actions))
 
 
 def evaluate(env: ManipulationEnv, policy: Policy, seeds: list[int], max_keyframes: int = 0,

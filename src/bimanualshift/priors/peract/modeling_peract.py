@@ -35,6 +35,7 @@ class CrossAttention(nn.Module):
 class PerActPrior(UnimanualPrior):
     config_class = PerActConfig
     proprio_weight = "proprio_proj.weight"  # the input layer of the proprioception (widened by the baselines)
+    concurrent_predict = True  # predict reads its weights and writes nothing
 
     def __init__(self, config: PerActConfig) -> None:
         super().__init__(config)

@@ -111,6 +111,7 @@ class RVTPrior(UnimanualPrior):
     observation = "points"
     proprio_weight = "coarse.proprio_proj.weight"
     extra_proprio_weights = ("fine.proprio_proj.weight",)  # both stages read the proprioception
+    concurrent_predict = True  # predict reads its weights and writes nothing
 
     def __init__(self, config: RVTConfig) -> None:
         super().__init__(config)
