@@ -9,6 +9,7 @@ from typing import Any
 import numpy as np
 import torch
 
+from bimanualshift.core.threads import policy_threads
 from bimanualshift.data.frames import KeyframeObservation
 from bimanualshift.encoders.text import DEFAULT_SPEC, TextEncoder, default_text_encoder, make_text_encoder
 from bimanualshift.geometry.frames import compose_rotation, euler_bins_to_quat
@@ -82,6 +83,10 @@ class BimanualShift:
     @torch.no_grad()
     def decide(self, obs: KeyframeObservation) -> list[ArmDecision]:
         """Each arm's Manager input, frozen-prior action and final action (Eq. 4) at this keyframe."""
+        with policy_threads():  # the same bits from any caller, whatever its thread count (core/threads.py)
+            return self._decide(obs)
+
+    def _decide(self, obs: KeyframeObservation) -> list[ArmDecision]:
         steps = self.prior_step.run(obs)
         text = torch.as_tensor(self.text_encoder.encode([obs.instruction]))
         arms = obs.scene.arm_names
