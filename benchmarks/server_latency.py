@@ -69,6 +69,7 @@ def main() -> None:
     parser.add_argument("--prior", default="peract_suite")
     parser.add_argument("--requests", type=int, default=40, help="per client")
     parser.add_argument("--out", default="results/server_latency.json")
+    parser.add_argument("--note", default="", help="a remark recorded in the result file (e.g. a before figure)")
     args = parser.parse_args()
     started = time.time()
     message = first_observation_message("push_two_buttons", 0, "latency")
@@ -87,7 +88,9 @@ def main() -> None:
     write_result(args.out, invoked_command(), {"observation": [0]}, started,
                  [single, eight], notes="loopback; server process with 2 torch threads serving the frozen prior "
                  "(no_residual: projection + prior per arm); 1.1 MB observation frames; the policy runs one request "
-                 "at a time, decoding and encoding overlap", throughput_ratio_8_to_1=round(ratio, 3))
+                 "at a time (each op on one thread, the two arms' prior passes side by side), decoding and encoding "
+                 "overlap"
+                 + (f"; {args.note}" if args.note else ""), throughput_ratio_8_to_1=round(ratio, 3))
     print(f"wrote {args.out}")
 
 
