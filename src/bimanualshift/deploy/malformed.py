@@ -19,7 +19,8 @@ from typing import Any
 import msgpack
 import numpy as np
 
-from bimanualshift.deploy.codec import pack
+from bimanualshift.deploy.codec import CodecError, pack, unpack
+from bimanualshift.deploy.schema import SchemaError, parse_observation
 
 CLASSES = ("wrong_dtype", "wrong_shape", "nan_inf", "truncated", "garbage", "schema_version", "missing_field",
            "oversized", "bad_utf8", "wrong_token", "keyframe_bound", "blind_views", "foreign_arms", "token_file_mode")
@@ -164,10 +165,21 @@ def _garbage(rng: np.random.Generator, msg: dict[str, Any]) -> Case:
     if choice == 3:
         depth = int(rng.integers(200, 100_000))  # one-element arrays inside each other, then a 0
         return Case("garbage", f"lists nested {depth} deep", b"\x91" * depth + b"\x00")
-    noisy = bytearray(pack(msg))
-    for i in rng.integers(0, len(noisy), size=int(rng.integers(1, 64))):
-        noisy[i] = int(rng.integers(256))
-    return Case("garbage", "a valid frame with random bytes overwritten", bytes(noisy))
+    while True:  # bytes landing in pixel data can leave a valid observation: keep only frames the schema refuses
+        noisy = bytearray(pack(msg))
+        for i in rng.integers(0, len(noisy), size=int(rng.integers(1, 64))):
+            noisy[i] = int(rng.integers(256))
+        if not _valid(bytes(noisy)):
+            return Case("garbage", "a valid frame with random bytes overwritten", bytes(noisy))
+
+
+def _valid(frame: bytes) -> bool:
+    """Whether ``frame`` decodes to an observation the schema accepts (then an action is the right answer)."""
+    try:
+        parse_observation(unpack(frame))
+    except (CodecError, SchemaError):
+        return False
+    return True
 
 
 def _schema_version(rng: np.random.Generator, msg: dict[str, Any]) -> Case:
