@@ -16,9 +16,9 @@ SINGLE_ARM_SEEDS = split_seeds("train", 600)  # where the pretraining demonstrat
 
 
 def test_every_pair_names_a_bimanual_task_and_a_single_arm_one() -> None:
-    assert set(SKILL_PAIRS) == set(task_names(bimanual=True))
+    assert set(SKILL_PAIRS) == set(task_names(bimanual=True, robot="panda"))
     singles = {s for pairs in SKILL_PAIRS.values() for s in pairs.values()}
-    assert singles <= set(task_names(bimanual=False))
+    assert singles <= set(task_names(bimanual=False, robot="panda"))
 
 
 def test_the_two_arms_see_one_object_shifted_by_their_bases() -> None:

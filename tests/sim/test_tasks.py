@@ -22,9 +22,13 @@ def env(request: pytest.FixtureRequest) -> Iterator[ManipulationEnv]:
 
 
 def test_registry_has_bimanual_and_single_arm_tasks() -> None:
-    assert set(task_names(bimanual=True)) == {"lift_ball", "push_two_buttons", "pick_up_plate", "take_tray_out_of_oven",
-                                              "straighten_rope", "sweep_to_dustpan", "buttons_then_lift_ball"}
-    assert len(task_names(bimanual=False)) >= 8
+    assert set(task_names(bimanual=True, robot="panda")) == {
+        "lift_ball", "push_two_buttons", "pick_up_plate", "take_tray_out_of_oven", "straighten_rope",
+        "sweep_to_dustpan", "buttons_then_lift_ball"}
+    assert len(task_names(bimanual=False, robot="panda")) >= 8
+    # a task another robot may run is registered again under "task@robot", on that robot's spec
+    assert set(task_names(robot="ur5e")) == {f"{t}@ur5e" for t in task_names() if "ur5e" in TASKS[t].other_robots}
+    assert TASKS["push_button@ur5e"].robot == "ur5e" and TASKS["push_button@ur5e"].name == "push_button@ur5e"
     with pytest.raises(ValueError, match="registered twice"):
         register_task("push_button")(TASKS["push_button"])
 

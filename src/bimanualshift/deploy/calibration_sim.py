@@ -29,7 +29,7 @@ from bimanualshift.deploy.calibration import (
     solve_camera_to_base_robust,
 )
 from bimanualshift.deploy.robot import Calibration, pose_matrix
-from bimanualshift.sim.cameras import STATIC_CAMERAS, CameraRig
+from bimanualshift.sim.cameras import CameraRig
 from bimanualshift.sim.env import ManipulationEnv
 from bimanualshift.sim.task import make_task
 
@@ -120,8 +120,9 @@ def simulate_calibration(task: str = "push_two_buttons", poses: int = 40, width:
     task_obj.scene_xml = lambda: scene_xml() + marker_xml(marker_length)  # type: ignore[method-assign]
     env = ManipulationEnv(task_obj)
     env.reset(seed=0, options={"render": False})
-    cameras = tuple(STATIC_CAMERAS)
-    rig = CameraRig(env.model, cameras, env.cameras.mujoco_names, height=height, width=width, samples=8)
+    cameras = tuple(env.robot.static_cameras)
+    rig = CameraRig(env.model, cameras, env.cameras.mujoco_names, height=height, width=width, samples=8,
+                    fovy=env.robot.camera_fovy)
     truth_cameras = {c: rig.extrinsics(env.data, c) for c in cameras}
     k = opencv_intrinsics(rig.intrinsics())
     truth_bases = {}

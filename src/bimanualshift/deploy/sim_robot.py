@@ -23,7 +23,7 @@ SIM_LIMITS = SafetyLimits(tuple(WORKSPACE_LOW), tuple(WORKSPACE_HIGH), max_trans
 
 class MujocoRobot(Robot):
     def __init__(self, task: str, limits: SafetyLimits = SIM_LIMITS, calibration: Calibration | None = None,
-                 image_size: int = 128) -> None:
+                 image_size: int | None = None) -> None:
         self.task_name, self.limits, self.image_size = task, limits, image_size
         self.env: ManipulationEnv | None = None
         # a calibration file replaces the simulator's static camera poses and base anchors (its wrist cameras keep

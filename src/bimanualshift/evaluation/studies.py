@@ -22,7 +22,7 @@ from bimanualshift.evaluation.tables import bench_table, stage_table, targets_ta
 from bimanualshift.evaluation.targets import paired_with_full, study_targets
 from bimanualshift.registry import methods_with_role
 from bimanualshift.sim.perturbations import PRESETS
-from bimanualshift.sim.task import TASK_GROUPS, resolve_task_names
+from bimanualshift.sim.task import resolve_task_names, task_groups
 from bimanualshift.utils.io import atomic_write_text
 
 # Table I's rows: the full method, every baseline, every ablation and the frozen prior on its own (the registry
@@ -125,7 +125,7 @@ def study_plan(name: str, overrides: dict[str, Any] | None = None, root: str = "
     planned_tasks = [t for _, cfg in runs for t in cfg.tasks]
     partition = _partitioned(runs)
     if chosen is not None and partition:
-        unknown = [t for t in chosen if t not in planned_tasks and t not in TASK_GROUPS]
+        unknown = [t for t in chosen if t not in planned_tasks and t not in task_groups()]
         chosen = resolve_task_names(chosen)
         if unknown:
             raise ValueError(f"study {name} has no task {', '.join(unknown)}; its tasks are "

@@ -9,41 +9,45 @@ no collision detection), and the executor hands it a goal once per control step.
 The law is robosuite's OSC_POSE with position and orientation uncoupled (its default): for each arm,
 tau = J_p^T Lambda_p (kp e_p - kd v) + J_r^T Lambda_r (kp e_r - kd w) + the dynamically consistent nullspace
 pull to the home posture (kp_null = 10, critically damped) + MuJoCo's bias forces (gravity and Coriolis), with
-robosuite's orientation error and kp = 300, kd = 2 sqrt(kp); MuJoCo clips the torques to the Panda's limits (the
-motors' ctrlrange). The grippers keep robosuite's position servos and its ramp of 0.2 of the range per control
-step. Cheaper variants (the law every 5 substeps, or on state one substep old, or joint servos tracking a
-once-per-step target) changed the contact behaviour the experts rely on; docs/simulation.md has their figures.
+robosuite's orientation error and kp = 300 (the robot spec's ``osc_kp``), kd = 2 sqrt(kp); MuJoCo clips the
+torques to the arm's limits (the motors' ctrlrange). Any number of joints: a Panda's 7, a UR5e's 6 (no nullspace
+left). The grippers keep robosuite's position servos and its ramp (the spec's ``gripper_speed`` of the range per
+control step, in the direction its ``format_action`` moves the fingers). Cheaper variants (the law every 5
+substeps, or on state one substep old, or joint servos tracking a once-per-step target) changed the contact
+behaviour the experts rely on; docs/simulation.md has their figures.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import mujoco
 import numpy as np
 from numba import njit
 
+from bimanualshift.sim.robots import PANDA, RobotSpec
+
 SUBSTEPS = 25  # physics steps of 2 ms per 50 ms control step
-OSC_KP = 300.0  # stiffer than robosuite's default 150, so presses and grasps reach their targets
-OSC_KD = 2.0 * np.sqrt(OSC_KP)  # critically damped
+OSC_KP = 300.0  # the Panda spec's: stiffer than robosuite's default 150, so presses and grasps reach their targets
 NULLSPACE_KP = 10.0  # robosuite's pull towards the home posture, in the nullspace
 NULLSPACE_KD = 2.0 * np.sqrt(NULLSPACE_KP)
-GRIPPER_RAMP = 0.2  # robosuite's Panda gripper speed: fraction of the normalised range per control step
 
 
 @dataclass
 class ArmIndexes:
     """Where one arm lives in the compiled model."""
 
-    qpos: np.ndarray  # (7,) qpos addresses of the arm joints
-    dofs: np.ndarray  # (7,) dof addresses
-    actuators: np.ndarray  # (7,) torque motor ids
+    qpos: np.ndarray  # (joints,) qpos addresses of the arm joints
+    dofs: np.ndarray  # (joints,) dof addresses
+    actuators: np.ndarray  # (joints,) torque motor ids
     site: int  # end-effector site id
     gripper_actuators: np.ndarray  # (2,) finger servo ids
-    home: np.ndarray  # (7,) initial joint positions
+    home: np.ndarray  # (joints,) initial joint positions
+    gripper_open: np.ndarray = field(default_factory=lambda: np.array([1.0, -1.0]))  # finger commands' way open
+    gripper_speed: float = 0.2
 
     @staticmethod
-    def of_robot(model: mujoco.MjModel, robot: object) -> ArmIndexes:
+    def of_robot(model: mujoco.MjModel, robot: object, spec: RobotSpec = PANDA) -> ArmIndexes:
         """Read a robosuite robot's names (robosuite builds the model; it no longer runs the controller)."""
         rm = robot.robot_model  # type: ignore[attr-defined]
         joints = [model.joint(name).id for name in rm.joints]
@@ -54,15 +58,18 @@ class ArmIndexes:
             actuators=np.array([model.actuator(name).id for name in rm.actuators]),
             site=int(robot.eef_site_id["right"]),  # type: ignore[attr-defined]
             gripper_actuators=np.array([model.actuator(name).id for name in gripper.actuators]),
-            home=np.asarray(rm.init_qpos, dtype=np.float64),
+            home=np.asarray(spec.home_qpos or rm.init_qpos, dtype=np.float64),
+            gripper_open=np.asarray(spec.gripper_open_direction, dtype=np.float64),
+            gripper_speed=spec.gripper_speed,
         )
 
 
 class OscArms:
     """Drives every arm to its commanded end-effector pose; one ``command`` + ``step`` per control step."""
 
-    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, arms: list[ArmIndexes]) -> None:
+    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, arms: list[ArmIndexes], kp: float = OSC_KP) -> None:
         self.model, self.data, self.arms = model, data, arms
+        self.kp = float(kp)
         n = len(arms)
         self._dofs = np.stack([a.dofs for a in arms])  # (n, 7)
         self._qpos = np.stack([a.qpos for a in arms])
@@ -85,7 +92,7 @@ class OscArms:
         for i, arm in enumerate(self.arms):
             self.goal_pos[i] = d.site_xpos[arm.site]
             self.goal_mat[i] = d.site_xmat[arm.site].reshape(3, 3)
-            self.gripper_action[i] = (1.0, -1.0)
+            self.gripper_action[i] = arm.gripper_open  # fully open
         self._apply_grippers()
         d.ctrl[self._acts] = 0.0
 
@@ -96,9 +103,9 @@ class OscArms:
         for i, quat in enumerate(quats_wxyz):
             mujoco.mju_quat2Mat(self._mat9, quat)
             self.goal_mat[i] = self._mat9.reshape(3, 3)
-        direction = np.where(np.asarray(gripper_open) > 0.5, -1.0, 1.0)[:, None]  # robosuite: -1 opens
-        self.gripper_action[:] = np.clip(self.gripper_action + np.array([-1.0, 1.0]) * GRIPPER_RAMP * direction,
-                                         -1.0, 1.0)
+        for i, arm in enumerate(self.arms):  # robosuite's format_action: a ramp towards open or closed
+            way = arm.gripper_open if gripper_open[i] > 0.5 else -arm.gripper_open
+            self.gripper_action[i] = np.clip(self.gripper_action[i] + arm.gripper_speed * way, -1.0, 1.0)
         self._apply_grippers()
 
     def step(self) -> None:
@@ -128,14 +135,14 @@ class OscArms:
         # Writes the torques into ctrl; MuJoCo clips them to the motors' ctrlrange (the Panda's torque limits).
         osc_torques(self._jacp, self._jacr, self._mass, self._bias, self._dofs, self._qpos, self._sites,
                     self._acts, d.site_xpos, d.site_xmat, d.qpos, d.qvel, self.goal_pos, self.goal_mat, self._home,
-                    d.ctrl)
+                    d.ctrl, self.kp)
 
 
 @njit(cache=True, nogil=True)
 def osc_torques(jacp: np.ndarray, jacr: np.ndarray, full_mass: np.ndarray, bias: np.ndarray, dofs: np.ndarray,
                 qpos_adr: np.ndarray, sites: np.ndarray, actuators: np.ndarray, site_xpos: np.ndarray,
                 site_xmat: np.ndarray, qpos: np.ndarray, qvel: np.ndarray, goal_pos: np.ndarray, goal_mat: np.ndarray,
-                home: np.ndarray, ctrl: np.ndarray) -> None:
+                home: np.ndarray, ctrl: np.ndarray, kp: float) -> None:
     """robosuite's OSC_POSE torques for every arm, written into ``ctrl`` (compiled: it runs every substep).
 
     Per arm: position error and robosuite's orientation error (half the sum of the cross products of the current
@@ -163,7 +170,7 @@ def osc_torques(jacp: np.ndarray, jacr: np.ndarray, full_mass: np.ndarray, bias:
         error[:3] = goal_pos[i] - site_xpos[sites[i]]
         for col in range(3):
             error[3:] += 0.5 * np.cross(current[:, col], goal_mat[i][:, col])
-        wrench_goal = OSC_KP * error - OSC_KD * twist
+        wrench_goal = kp * error - 2.0 * np.sqrt(kp) * twist  # critically damped
         inv_full = j @ mass_inv @ j.T
         wrench = np.empty(6)
         wrench[:3] = np.linalg.inv(inv_full[:3, :3]) @ wrench_goal[:3]

@@ -16,13 +16,10 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-STATIC_CAMERAS: dict[str, tuple[tuple[float, float, float], tuple[float, float, float]]] = {
-    # name: (position, look-at point), world frame; table top at z = 0.8, robots at x = -0.56.
-    "front": ((0.95, 0.0, 1.4), (0.0, 0.0, 0.85)),
-    "overhead": ((0.15, 0.0, 2.05), (0.0, 0.0, 0.8)),
-    "over_shoulder_left": ((-0.3, 0.95, 1.5), (0.05, 0.0, 0.8)),
-    "over_shoulder_right": ((-0.3, -0.95, 1.5), (0.05, 0.0, 0.8)),
-}
+from bimanualshift.sim.robots import PANDA, RLBENCH2_CAMERAS, RobotSpec
+
+# RLBench2's static cameras, the Panda spec's (each robot spec names its own rig: ``sim.robots``)
+STATIC_CAMERAS = RLBENCH2_CAMERAS
 WRIST_CAMERA = "robot{index}_eye_in_hand"
 FOVY_DEGREES = 60.0
 PRIMITIVE_SLICES, PRIMITIVE_STACKS = 14, 6
@@ -33,11 +30,13 @@ def wrist_camera_names(arm_names: tuple[str, ...]) -> dict[str, str]:
     return {f"wrist_{arm}": WRIST_CAMERA.format(index=i) for i, arm in enumerate(arm_names)}
 
 
-def default_camera_names(arm_names: tuple[str, ...]) -> tuple[str, ...]:
-    return (*STATIC_CAMERAS, *wrist_camera_names(arm_names))
+def default_camera_names(arm_names: tuple[str, ...], robot: RobotSpec = PANDA) -> tuple[str, ...]:
+    """The cameras a robot's rig renders: its static cameras, then a wrist camera per arm where it has them."""
+    return (*robot.static_cameras, *(wrist_camera_names(arm_names) if robot.wrist_cameras else ()))
 
 
-def camera_xml(name: str, position: tuple[float, ...], target: tuple[float, ...]) -> ET.Element:
+def camera_xml(name: str, position: tuple[float, ...], target: tuple[float, ...],
+               fovy: float = FOVY_DEGREES) -> ET.Element:
     pos, tgt = np.asarray(position, float), np.asarray(target, float)
     forward = (tgt - pos) / np.linalg.norm(tgt - pos)
     right = np.cross(forward, [0.0, 0.0, 1.0])
@@ -49,7 +48,7 @@ def camera_xml(name: str, position: tuple[float, ...], target: tuple[float, ...]
         mode="fixed",
         pos=" ".join(f"{v:.4f}" for v in pos),
         xyaxes=" ".join(f"{v:.5f}" for v in (*right, *up)),
-        fovy=str(FOVY_DEGREES),
+        fovy=str(fovy),
     )
 
 
@@ -95,8 +94,9 @@ class CameraRig:
     """
 
     def __init__(self, model: mujoco.MjModel, names: tuple[str, ...], mujoco_names: dict[str, str],
-                 height: int = 128, width: int = 128, samples: int = 0) -> None:
+                 height: int = 128, width: int = 128, samples: int = 0, fovy: float = FOVY_DEGREES) -> None:
         self.model = model
+        self.fovy = fovy  # the robot spec's static cameras' field of view
         self.names = names
         self.mujoco_names = mujoco_names
         self.height, self.width = height, width
@@ -146,8 +146,10 @@ class CameraRig:
         self._depth_d = float(np.float32(-0.5) * (-(np.float32(2) * far * near) / (far - near)))
 
     def intrinsics(self) -> np.ndarray:
-        # One fovy for every camera; MuJoCo's pixels are square.
-        f = 0.5 * self.height / np.tan(np.deg2rad(FOVY_DEGREES) / 2)
+        # One fovy for every camera, the static cameras'; MuJoCo's pixels are square. (robosuite draws the Panda's
+        # wrist cameras at 75 degrees: their back-projection with this value is off, and is kept as every recorded
+        # result ran it until that is re-measured.)
+        f = 0.5 * self.height / np.tan(np.deg2rad(self.fovy) / 2)
         return np.array([[f, 0, self.width / 2], [0, f, self.height / 2], [0, 0, 1]], dtype=np.float64)
 
     def extrinsics(self, data: mujoco.MjData, name: str) -> np.ndarray:

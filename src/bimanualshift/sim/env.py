@@ -25,7 +25,16 @@ from bimanualshift.sim.perturb_scene import apply_to_model, mirror_bodies
 from bimanualshift.sim.perturbations import Perturbations
 from bimanualshift.sim.scene import RobosuiteScene
 from bimanualshift.sim.segmentation import SceneInstances
-from bimanualshift.sim.task import ACTION_DIM, ArmAction, Keyframe, SimHandle, Task, make_task
+from bimanualshift.sim.task import (
+    ACTION_DIM,
+    ROBOT_SEPARATOR,
+    ArmAction,
+    Keyframe,
+    SimHandle,
+    Task,
+    make_task,
+    task_class,
+)
 
 PROPRIO_DIM = 8
 
@@ -52,29 +61,35 @@ class InvalidActionError(ValueError):
 class ManipulationEnv(gym.Env):
     metadata = {"render_modes": ["rgb_array"]}
 
-    def __init__(self, task: str | Task, image_size: int = 128, camera_names: tuple[str, ...] | None = None,
-                 max_steps_per_keyframe: int = 90, perturbations: Perturbations | None = None) -> None:
+    def __init__(self, task: str | Task, image_size: int | None = None, camera_names: tuple[str, ...] | None = None,
+                 max_steps_per_keyframe: int = 90, perturbations: Perturbations | None = None,
+                 robot: str | None = None) -> None:
+        if robot and isinstance(task, str) and robot != task_class(task).robot:
+            task = f"{task}{ROBOT_SEPARATOR}{robot}"  # the task's variant on that robot, if it allows it
         self.task = make_task(task, perturbations) if isinstance(task, str) else task
         if perturbations is not None and not isinstance(task, str):
             self.task.perturbations = perturbations
         self.perturbations = self.task.perturbations
+        self.robot = self.task.robot_spec(robot)  # the task's own robot unless another it allows is asked for
+        image_size = image_size or self.robot.image_size
         self.arm_names = self.task.arm_names
-        self.scene = RobosuiteScene(self.task)
+        self.scene = RobosuiteScene(self.task, self.robot)
         self.scene.reset()
         self.model: mujoco.MjModel = self.scene.sim.model._model
         self.data: mujoco.MjData = self.scene.sim.data._data
         self.sim = SimHandle(self.model, self.data, TABLE_TOP_Z)
         self.task.after_compile(self.model)
-        apply_to_model(self.model, self.perturbations)
-        self.arms = OscArms(self.model, self.data, [ArmIndexes.of_robot(self.model, r) for r in self.scene.robots])
+        apply_to_model(self.model, self.perturbations, tuple(self.robot.static_cameras))
+        self.arms = OscArms(self.model, self.data, [ArmIndexes.of_robot(self.model, r, self.robot)
+                                                    for r in self.scene.robots], kp=self.robot.osc_kp)
         self._grippers = [(r._ref_gripper_joint_pos_indexes["right"], np.asarray(r.gripper["right"].init_qpos))
                           for r in self.scene.robots]
         # What an episode may change in the model (placements, colours): restored at every reset, so an episode
         # never inherits the one before it.
         self._model_fields = {key: getattr(self.model, key).copy() for key in MODEL_EPISODE_FIELDS}
-        self.camera_names = camera_names or default_camera_names(self.arm_names)
+        self.camera_names = camera_names or default_camera_names(self.arm_names, self.robot)
         self.cameras = CameraRig(self.model, self.camera_names, wrist_camera_names(self.arm_names),
-                                 image_size, image_size)
+                                 image_size, image_size, fovy=self.robot.camera_fovy)
         self.instances = SceneInstances.from_model(self.model, self.task, self.arm_names)
         self.arm_frames: dict[str, ArmFrame] = self.scene.arm_frames()
         fixed = {"table", "world", *(r.robot_model.root_body for r in self.scene.robots)}

@@ -6,15 +6,17 @@ import mujoco
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from bimanualshift.sim.cameras import STATIC_CAMERAS
 from bimanualshift.sim.perturbations import Perturbations
+from bimanualshift.sim.robots import RLBENCH2_CAMERAS
 
 TABLE_COLOUR = (0.15, 0.2, 0.35)
 FLOOR_COLOUR = (0.1, 0.1, 0.1)
 
 
-def apply_to_model(model: mujoco.MjModel, p: Perturbations) -> None:
-    """Change lights, surfaces and camera poses once, after the scene is compiled."""
+def apply_to_model(model: mujoco.MjModel, p: Perturbations,
+                   static_cameras: tuple[str, ...] = tuple(RLBENCH2_CAMERAS)) -> None:
+    """Change lights, surfaces and the poses of ``static_cameras`` (the robot spec's) once, after the scene is
+    compiled."""
     if p.lighting > 0:
         dim = 1.0 - 0.7 * p.lighting
         warm = np.array([1.0, 0.85, 0.6]) ** p.lighting
@@ -41,7 +43,7 @@ def apply_to_model(model: mujoco.MjModel, p: Perturbations) -> None:
                 model.geom_rgba[g, :3] = FLOOR_COLOUR
     if p.camera_shift_m > 0 or p.camera_rotate_deg > 0:
         rng = np.random.default_rng(p.seed)
-        for name in STATIC_CAMERAS:
+        for name in static_cameras:
             cam = model.camera(name).id
             direction = rng.normal(size=3)
             model.cam_pos[cam] += p.camera_shift_m * direction / np.linalg.norm(direction)

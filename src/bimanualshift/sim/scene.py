@@ -1,4 +1,5 @@
-"""The robosuite scene: one or two Franka Pandas side by side facing a table, plus a task's objects.
+"""The robosuite scene: one or two arms of a robot spec (``sim.robots``) side by side facing a table, plus a task's
+objects.
 
 robosuite supplies the robots, grippers and table arena; the task supplies its objects as MJCF. robosuite builds
 the model only: its operational-space law runs in ``sim.arm_control``, compiled, at every physics substep, and the
@@ -14,7 +15,7 @@ import xml.etree.ElementTree as ET
 import numpy as np
 
 # robosuite announces optional extras (private macros, robosuite_models, mink IK) at import and warns
-# about controller parts a Panda does not have on every env: none of it concerns this package.
+# about controller parts an arm does not have on every env: none of it concerns this package.
 warnings.filterwarnings("ignore", module="glfw")
 logging.disable(logging.WARNING)
 try:
@@ -29,39 +30,37 @@ from robosuite.models.arenas import TableArena  # noqa: E402
 from robosuite.models.tasks import ManipulationTask  # noqa: E402
 
 from bimanualshift.geometry.frames import ArmFrame  # noqa: E402
-from bimanualshift.sim.arm_control import OSC_KP  # noqa: E402
 from bimanualshift.sim.camera_meshes import lighten_visual_meshes  # noqa: E402
-from bimanualshift.sim.cameras import STATIC_CAMERAS, camera_xml  # noqa: E402
-from bimanualshift.sim.layout import BIMANUAL_ARM_Y, TABLE_SIZE, TABLE_TOP_Z, UNIMANUAL_ARM_Y  # noqa: E402
+from bimanualshift.sim.cameras import camera_xml  # noqa: E402
+from bimanualshift.sim.layout import TABLE_SIZE, TABLE_TOP_Z  # noqa: E402
+from bimanualshift.sim.robots import PANDA, RobotSpec  # noqa: E402
 from bimanualshift.sim.task import Task  # noqa: E402
 
 
-def arm_base_y(task: Task) -> dict[str, float]:
-    return BIMANUAL_ARM_Y if task.bimanual else UNIMANUAL_ARM_Y
-
-
-def controller_config() -> dict:
+def controller_config(robot: RobotSpec = PANDA) -> dict:
     """The controller robosuite builds its robots with. It never runs: ``sim.arm_control`` evaluates the same
-    OSC_POSE law (absolute world-frame targets, this gain) without robosuite's per-substep Python."""
-    cfg = load_composite_controller_config(controller="BASIC", robot="Panda")
+    OSC_POSE law (absolute world-frame targets, the spec's gain) without robosuite's per-substep Python."""
+    cfg = load_composite_controller_config(controller="BASIC", robot=robot.arm)
     for part in cfg["body_parts"].values():
         if part.get("type") == "OSC_POSE":
             part["input_type"] = "absolute"
             part["input_ref_frame"] = "world"
-            part["kp"] = OSC_KP
+            part["kp"] = robot.osc_kp
     return cfg
 
 
 class RobosuiteScene(ManipulationEnv):
-    """A robosuite environment whose objects, success and resets are defined by a ``Task``."""
+    """A robosuite environment whose objects, success and resets are defined by a ``Task``, on ``robot``'s arms."""
 
-    def __init__(self, task: Task, **kwargs) -> None:
+    def __init__(self, task: Task, robot: RobotSpec = PANDA, **kwargs) -> None:
         self.task = task
+        self.robot = robot
         self.arm_names = task.arm_names
         n = len(self.arm_names)
         super().__init__(
-            robots=["Panda"] * n,
-            controller_configs=[controller_config()] * n,
+            robots=[robot.arm] * n,
+            gripper_types=[robot.gripper] * n,
+            controller_configs=[controller_config(robot)] * n,
             has_renderer=False,
             has_offscreen_renderer=False,
             use_camera_obs=False,
@@ -75,15 +74,15 @@ class RobosuiteScene(ManipulationEnv):
 
     def _load_model(self) -> None:
         super()._load_model()
-        ys = arm_base_y(self.task)
+        ys = self.robot.base_ys(self.task.bimanual)
         for robot, arm in zip(self.robots, self.arm_names):
             xpos = np.array(robot.robot_model.base_xpos_offset["table"](TABLE_SIZE[0]))
             robot.robot_model.set_base_xpos(xpos + np.array([0.0, ys[arm], 0.0]))
         arena = TableArena(table_full_size=TABLE_SIZE, table_offset=(0.0, 0.0, TABLE_TOP_Z))
         arena.set_origin([0, 0, 0])
         self.model = ManipulationTask(mujoco_arena=arena, mujoco_robots=[r.robot_model for r in self.robots])
-        for name, (pos, target) in STATIC_CAMERAS.items():
-            self.model.worldbody.append(camera_xml(name, pos, target))
+        for name, (pos, target) in self.robot.static_cameras.items():
+            self.model.worldbody.append(camera_xml(name, pos, target, self.robot.camera_fovy))
         if self.task.plugins:
             extension = ET.SubElement(self.model.root, "extension")
             for plugin in self.task.plugins:

@@ -18,6 +18,7 @@ import numpy as np
 from bimanualshift.core.arms import ARM_NAMES_BIMANUAL, ARM_NAMES_UNIMANUAL
 from bimanualshift.core.colours import RGB, TRAIN_COLOURS, UNSEEN_COLOURS
 from bimanualshift.sim.perturbations import Perturbations
+from bimanualshift.sim.robots import RobotSpec, get_robot
 
 # The gripper pointing straight down as in the Panda's initial pose ((x, y, z, w) quaternion).
 # In this pose the fingers open along the world y axis and the hand is thin along x.
@@ -145,6 +146,10 @@ class Task(ABC):
     max_keyframes: ClassVar[int] = 25
     # MuJoCo engine plugins the scene needs (e.g. "mujoco.elasticity.cable" for a rope).
     plugins: ClassVar[tuple[str, ...]] = ()
+    # The robot spec (``sim.robots``) the task and its expert are built for, and the others it also runs on
+    # (``--robot``); a spec not listed is refused, since its expert was never checked there.
+    robot: ClassVar[str] = "panda"
+    other_robots: ClassVar[tuple[str, ...]] = ()
 
     def __init__(self, perturbations: Perturbations | None = None) -> None:
         self.perturbations = perturbations or Perturbations()
@@ -158,6 +163,16 @@ class Task(ABC):
 
     def pick_colours(self, rng: np.random.Generator, n: int) -> list[str]:
         return [str(c) for c in rng.choice(list(self.palette), size=n, replace=False)]
+
+    @classmethod
+    def robot_spec(cls, robot: str | None = None) -> RobotSpec:
+        """``robot`` (default: the task's own) if the task runs on it, else a ValueError naming the ones it runs on."""
+        name = robot or cls.robot
+        allowed = (cls.robot, *cls.other_robots)
+        if name not in allowed:
+            raise ValueError(f"task {cls.name!r} runs on the robot {' or '.join(map(repr, allowed))}, not {name!r} "
+                             "(its scripted expert was built and checked there)")
+        return get_robot(name)
 
     @property
     def arm_names(self) -> tuple[str, ...]:
@@ -239,12 +254,24 @@ TASKS: dict[str, type[Task]] = {}
 T = TypeVar("T", bound=type[Task])
 
 
+ROBOT_SEPARATOR = "@"  # "push_button@ur5e": the task on another robot spec it allows (``Task.other_robots``)
+
+
 def register_task(name: str) -> Callable[[T], T]:
+    """Register a task under ``name``, and under ``name@robot`` for each robot in its ``other_robots``: a task on
+    another robot is a task of its own name, so its demos, episodes and results never mix with the original's."""
     def wrap(cls: T) -> T:
-        if name in TASKS:
-            raise ValueError(f"task {name!r} registered twice ({TASKS[name].__module__} and {cls.__module__})")
-        cls.name = name
-        TASKS[name] = cls
+        for robot in (None, *cls.other_robots):
+            key = name if robot is None else f"{name}{ROBOT_SEPARATOR}{robot}"
+            if key in TASKS:
+                raise ValueError(f"task {key!r} registered twice ({TASKS[key].__module__} and {cls.__module__})")
+            if robot is None:
+                cls.name = name
+                TASKS[key] = cls
+            else:
+                get_robot(robot)  # an unknown spec fails at registration
+                fields = {"name": key, "robot": robot, "other_robots": (), "__module__": cls.__module__}
+                TASKS[key] = type(f"{cls.__name__}_{robot}", (cls,), fields)
         return cls
 
     return wrap
@@ -271,20 +298,32 @@ def task_class(name: str) -> type[Task]:
     return TASKS[name]
 
 
-def task_names(bimanual: bool | None = None) -> list[str]:
+def task_names(bimanual: bool | None = None, robot: str | None = None) -> list[str]:
+    """Registered task names, of one kind (``bimanual``) and on one robot spec (``robot``) where given."""
     _register_all()
-    return sorted(n for n, c in TASKS.items() if bimanual is None or c.bimanual == bimanual)
+    return sorted(n for n, c in TASKS.items() if (bimanual is None or c.bimanual == bimanual)
+                  and (robot is None or c.robot == robot))
 
 
-TASK_GROUPS = ("all", "bimanual", "unimanual")  # names resolve_task_names expands to several tasks
+# names resolve_task_names expands to several tasks: every task, and per robot spec its two-arm and single-arm
+# tasks ("bimanual" and "unimanual" are the Panda's, the benchmark's; "bimanual_ur5e", "unimanual_ur5e", ...)
+TASK_GROUPS = ("all", "bimanual", "unimanual")
+
+
+def task_groups() -> dict[str, list[str]]:
+    groups = {"all": task_names(), "bimanual": task_names(True, "panda"), "unimanual": task_names(False, "panda")}
+    for robot in sorted({c.robot for c in TASKS.values()} - {"panda"}):
+        groups[f"bimanual_{robot}"] = task_names(True, robot)
+        groups[f"unimanual_{robot}"] = task_names(False, robot)
+    return groups
 
 
 def resolve_task_names(requested: list[str]) -> list[str]:
-    """Registered task names from names and the groups 'all', 'bimanual' and 'unimanual'."""
+    """Registered task names from names and the groups of ``task_groups`` ('all', 'bimanual', 'unimanual', ...)."""
     known = task_names()
-    groups = dict(zip(TASK_GROUPS, (known, task_names(bimanual=True), task_names(bimanual=False)), strict=True))
+    groups = task_groups()
     tasks = list(dict.fromkeys(t for name in requested for t in groups.get(name, [name])))
     bad = [t for t in tasks if t not in known]
     if bad:
-        raise ValueError(f"unknown task(s) {bad}; choose from {known}, or all / bimanual / unimanual")
+        raise ValueError(f"unknown task(s) {bad}; choose from {known}, or one of the groups {', '.join(groups)}")
     return tasks

@@ -30,6 +30,7 @@ OFF_TABLE_BY = 0.02  # metres the ball's centre must rise for the "ball grasped"
 @register_task("buttons_then_lift_ball")
 class ButtonsThenLiftBall(Task):
     bimanual = True
+    other_robots = ("ur5e",)  # its expert also runs on the UR5e twin (results/experts_ur5e.json)
     stage_names = ("first button", "both buttons", "ball grasped", "ball lifted")
 
     def scene_xml(self) -> str:

@@ -17,6 +17,7 @@ SQUEEZE = 0.025  # how far inside the ball each hand is commanded: the OSC sprin
 @register_task("lift_ball")
 class LiftBall(Task):
     bimanual = True
+    other_robots = ("ur5e",)  # its expert also runs on the UR5e twin (results/experts_ur5e.json)
 
     def scene_xml(self) -> str:
         return ball_xml("ball", cube=self.perturbations.unseen_shapes)

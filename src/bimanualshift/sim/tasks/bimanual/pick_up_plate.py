@@ -18,6 +18,7 @@ GRASP_HEIGHT = RIM_HEIGHT - 0.008  # gripper site height above the table: pads l
 class PickUpPlate(PlateLiftTask):
     region, yaw_range, lifted_by = REGION, (-np.pi / 8, np.pi / 8), LIFTED_BY
     bimanual = True
+    other_robots = ("ur5e",)  # its expert also runs on the UR5e twin (results/experts_ur5e.json)
 
     def scene_xml(self) -> str:
         return plate_xml("plate", RADIUS, square=self.perturbations.unseen_shapes, mass=0.25)

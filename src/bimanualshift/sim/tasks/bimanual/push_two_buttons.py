@@ -25,6 +25,7 @@ ANY_REGION = ((-0.10, 0.12), (-0.42, 0.42))
 @register_task("push_two_buttons")
 class PushTwoButtons(Task):
     bimanual = True
+    other_robots = ("ur5e",)  # its expert also runs on the UR5e twin (results/experts_ur5e.json)
 
     def scene_xml(self) -> str:
         return "".join(button_xml(b, square=self.perturbations.unseen_shapes) for b in BUTTONS)

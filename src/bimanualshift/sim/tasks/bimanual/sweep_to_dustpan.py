@@ -20,6 +20,7 @@ PHRASINGS = ("sweep the dirt to the dustpan", "sweep dirt to dustpan", "sweep th
 @register_task("sweep_to_dustpan")
 class SweepToDustpan(SweepTask):
     bimanual = True
+    other_robots = ("ur5e",)  # its expert also runs on the UR5e twin (results/experts_ur5e.json)
 
     def initialize_episode(self, sim: SimHandle, rng: np.random.Generator) -> None:
         place_sweep_scene(sim, rng, "dustpan", "brush", SWEEP_DIRT)

@@ -19,6 +19,7 @@ SHIFT = (0.08, 0.14)  # how far the target lies from the pan's centre
 @register_task("drag_dustpan")
 class DragDustpan(Task):
     bimanual = False
+    other_robots = ("ur5e",)  # its expert also runs on the UR5e twin (results/experts_ur5e.json)
 
     def scene_xml(self) -> str:
         return dustpan_xml("dustpan") + marker_xml("target", TARGET_RADIUS)

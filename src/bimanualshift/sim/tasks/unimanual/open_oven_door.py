@@ -24,6 +24,7 @@ def towards_arm(mouth_y: float) -> float:
 @register_task("open_oven_door")
 class OpenOvenDoor(Task):
     bimanual = False
+    other_robots = ("ur5e",)  # its expert also runs on the UR5e twin (results/experts_ur5e.json)
 
     def scene_xml(self) -> str:
         return oven_xml("oven") + tray_xml("tray", round_tray=self.perturbations.unseen_shapes)

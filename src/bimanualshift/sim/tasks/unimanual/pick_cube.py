@@ -19,6 +19,7 @@ LIFTED_BY = 0.05  # metres above the table that count as picked up
 @register_task("pick_cube")
 class PickCube(Task):
     bimanual = False
+    other_robots = ("ur5e",)  # its expert also runs on the UR5e twin (results/experts_ur5e.json)
 
     def scene_xml(self) -> str:
         return "".join(cube_xml(c, sphere=self.perturbations.unseen_shapes) for c in CUBES)

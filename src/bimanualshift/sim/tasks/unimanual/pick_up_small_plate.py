@@ -27,6 +27,7 @@ GRASP_HEIGHT = RIM_HEIGHT - 0.008  # gripper site above the table: pads level wi
 class PickUpSmallPlate(PlateLiftTask):
     region, yaw_range, lifted_by = REGION, (0.0, np.pi), LIFTED_BY
     bimanual = False
+    other_robots = ("ur5e",)  # its expert also runs on the UR5e twin (results/experts_ur5e.json)
 
     def scene_xml(self) -> str:
         return plate_xml("plate", RADIUS, square=self.perturbations.unseen_shapes, mass=0.08)

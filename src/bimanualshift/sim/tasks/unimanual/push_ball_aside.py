@@ -24,6 +24,7 @@ PUSH = 0.10  # then goes on this far inside it
 @register_task("push_ball_aside")
 class PushBallAside(Task):
     bimanual = False
+    other_robots = ("ur5e",)  # its expert also runs on the UR5e twin (results/experts_ur5e.json)
     added_skill = True
 
     def scene_xml(self) -> str:

@@ -23,6 +23,7 @@ PARKED = np.array([1.5, 0.0])  # unused buttons are parked off the table, out of
 @register_task("push_button")
 class PushButton(Task):
     bimanual = False
+    other_robots = ("ur5e",)  # its expert also runs on the UR5e twin (results/experts_ur5e.json)
 
     def scene_xml(self) -> str:
         return "".join(button_xml(b, square=self.perturbations.unseen_shapes) for b in BUTTONS)

@@ -20,6 +20,7 @@ PUSH_OVERSHOOT = 0.01  # the fingers stop this far past where the block should r
 @register_task("slide_block")
 class SlideBlock(Task):
     bimanual = False
+    other_robots = ("ur5e",)  # its expert also runs on the UR5e twin (results/experts_ur5e.json)
 
     def scene_xml(self) -> str:
         return cube_xml("block", sphere=self.perturbations.unseen_shapes) + marker_xml("target", TARGET_RADIUS)

@@ -19,6 +19,7 @@ SHIFT_Y = (0.0, 0.32)
 @register_task("sweep_dirt")
 class SweepDirt(SweepTask):
     bimanual = False
+    other_robots = ("ur5e",)  # its expert also runs on the UR5e twin (results/experts_ur5e.json)
 
     def initialize_episode(self, sim: SimHandle, rng: np.random.Generator) -> None:
         place_sweep_scene(sim, rng, "dustpan", "brush", SWEEP_DIRT, shift_y=rng.uniform(*SHIFT_Y))
