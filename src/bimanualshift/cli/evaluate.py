@@ -123,7 +123,7 @@ class ProjectionQualityArgs:
     task: list[str] = field(default_factory=lambda: ["bimanual"])  # bimanual task name(s), or bimanual
     episodes: int = 50  # test seeds per task
     segmenters: list[str] = field(default_factory=lambda: ["simulator", "degraded-mild", "degraded-strong"])
-    image_size: int = 128
+    image_size: int = 0  # 0: the task robot's own (128 on the Panda, 256 on the UR5e twin)
     workers: int = 1  # parallel worker processes, one task each
     out: str = ""  # write a result JSON here (e.g. results/projection_quality.json)
 

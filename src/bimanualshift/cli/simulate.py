@@ -32,7 +32,7 @@ class CollectArgs:
     split: Literal["train", "validation", "test"] = "train"  # seed range to draw from; the three never overlap
     start: int = 0  # first seed offset within the split
     workers: int = 1  # parallel worker processes
-    image_size: int = 128  # camera resolution
+    image_size: int = 0  # camera resolution (0: the robot's own: 128 on the Panda, 256 on the UR5e twin)
     executor: Literal["local", "ray"] = "local"  # local worker processes, or Ray tasks on the cluster RAY_ADDRESS names
 
 
@@ -44,7 +44,7 @@ def collect(args: CollectArgs) -> None:
     if args.episodes < 1:
         raise ValueError("--episodes must be at least 1")
     stats = collect_demos(names, split_seeds(args.split, args.episodes, args.start), args.out, workers=args.workers,
-                          image_size=args.image_size, executor=args.executor)
+                          image_size=args.image_size or None, executor=args.executor)
     for task, s in stats.items():
         print(f"{task}: {s['succeeded']}/{s['attempted']} expert episodes succeeded and were saved "
               f"({s['skipped']} already present) under {Path(args.out) / task}")

@@ -71,7 +71,7 @@ class CollectJob:
     task: str
     seed: int
     out: str
-    image_size: int
+    image_size: int | None  # None: the task robot's cameras' own size
 
 
 def _collect_one(job: CollectJob) -> tuple[str, int, bool]:
@@ -83,7 +83,8 @@ def _collect_one(job: CollectJob) -> tuple[str, int, bool]:
 
 
 def collect(tasks: Iterable[str], seeds: Iterable[int], out: str | Path, workers: int = 1,
-            image_size: int = 128, skip_existing: bool = True, executor: str = "local") -> dict[str, dict[str, int]]:
+            image_size: int | None = None, skip_existing: bool = True,
+            executor: str = "local") -> dict[str, dict[str, int]]:
     """Collect expert demos; returns per task {"attempted", "succeeded", "skipped"}."""
     jobs = []
     stats: dict[str, dict[str, int]] = {}

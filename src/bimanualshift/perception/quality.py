@@ -80,7 +80,7 @@ def goal_instances(instance_class: np.ndarray, class_names: list[str], goal_noun
     return sorted(found)
 
 
-def projection_quality(task: str, seeds: list[int], segmenters: list[str], image_size: int = 128,
+def projection_quality(task: str, seeds: list[int], segmenters: list[str], image_size: int | None = None,
                        progress: bool = True) -> list[dict]:
     """Per segmenter and arm, kept / removed over every keyframe of the expert's episodes on ``seeds``."""
     from tqdm import tqdm
