@@ -15,7 +15,8 @@ Layout of ``<task>/episode_<seed>.h5`` (K keyframes, C cameras, A arms, H x W im
     actions      (K, A, 9)       float32  the keyframe reached from observation k: xyz, quaternion xyzw,
                                           gripper open, ignore collisions (world frame)
     dense/       optional, every 50 ms control step of the executed motion (T steps):
-      joint_positions  (T, A, 7) float32, joint_velocities (T, A, 7) float32,
+      joint_positions  (T, A, J) float32, joint_velocities (T, A, J) float32 (J: the arm's joints, 7 on a Panda,
+                       6 on a UR5e),
       eef_pose         (T, A, 7) float32  xyz + quaternion xyzw,  gripper_open (T, A) float32
 
 Observation k is what the cameras saw before keyframe action k was executed. Files are written to a
@@ -52,8 +53,8 @@ ARRAYS: dict[str, tuple[str, tuple[str | int, ...]]] = {
     "actions": ("float32", ("A", 9)),
 }
 
-DENSE_ARRAYS: dict[str, tuple[int, ...]] = {  # name -> shape after the (T, A) axes
-    "joint_positions": (7,), "joint_velocities": (7,), "eef_pose": (7,), "gripper_open": (),
+DENSE_ARRAYS: dict[str, tuple[int | None, ...]] = {  # name -> shape after the (T, A) axes (None: the arm's joints)
+    "joint_positions": (None,), "joint_velocities": (None,), "eef_pose": (7,), "gripper_open": (),
 }
 
 
@@ -175,10 +176,15 @@ def _validate_dense(dense: dict[str, np.ndarray], n_arms: int, where: str) -> No
         raise EpisodeFormatError(f"{where}: dense trajectory has fields {sorted(dense)}, "
                                  f"expected {sorted(DENSE_ARRAYS)}")
     steps = dense["gripper_open"].shape[0]
+    joints = dense["joint_positions"].shape[-1] if dense["joint_positions"].ndim == 3 else -1
+    if not 1 <= joints <= 16:
+        raise EpisodeFormatError(f"{where}: dense['joint_positions'] has shape {dense['joint_positions'].shape}, "
+                                 f"expected ({steps}, {n_arms}, joints)")
     for name, tail in DENSE_ARRAYS.items():
-        if dense[name].shape != (steps, n_arms, *tail):
+        want = (steps, n_arms, *(joints if d is None else d for d in tail))
+        if dense[name].shape != want:
             raise EpisodeFormatError(f"{where}: dense[{name!r}] has shape {dense[name].shape}, expected "
-                                     f"{(steps, n_arms, *tail)} ({steps} control steps, {n_arms} arms)")
+                                     f"{want} ({steps} control steps, {n_arms} arms, {joints} joints)")
 
 
 def list_episodes(root: str | Path, task: str) -> list[Path]:

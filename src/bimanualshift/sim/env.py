@@ -303,7 +303,7 @@ class ManipulationEnv(gym.Env):
         self._dense = [self._dense_sample()]
 
     def dense_trajectory(self) -> dict[str, np.ndarray]:
-        """The recorded control steps: joint_positions / joint_velocities (T, arms, 7), eef_pose (T, arms, 7:
+        """The recorded control steps: joint_positions / joint_velocities (T, arms, joints), eef_pose (T, arms, 7:
         xyz + quaternion xyzw) and gripper_open (T, arms). Recording stops."""
         if self._dense is None:
             raise RuntimeError("call start_dense_recording() before dense_trajectory()")

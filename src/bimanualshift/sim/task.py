@@ -38,6 +38,17 @@ def down_quat(yaw: float) -> np.ndarray:
     return q if q[3] >= 0 else -q
 
 
+def finger_side(geom: str) -> str:
+    """Which finger a gripper geom belongs to, "1" or "2" ("" for neither): robosuite names them
+    ``gripper0_right_finger1_...`` on a Panda and ``gripper0_right_left_outer_finger_...`` on a Robotiq."""
+    rest = geom.split("_", 2)[2] if geom.count("_") >= 2 else geom
+    if "finger1" in rest or rest.startswith("left_"):
+        return "1"
+    if "finger2" in rest or rest.startswith("right_"):
+        return "2"
+    return ""
+
+
 @dataclass(frozen=True)
 class ArmAction:
     """One arm's keyframe action in the world frame (the layout stored in demos and given to the env)."""
@@ -119,8 +130,9 @@ class SimHandle:
             for mine, other in ((contact.geom1, contact.geom2), (contact.geom2, contact.geom1)):
                 name = self.model.geom(other).name
                 if self.model.geom_bodyid[mine] == target and "finger" in name:
-                    gripper = name.split("_finger")[0]
-                    fingers.add((gripper, "1" if "finger1" in name else "2"))
+                    side = finger_side(name)
+                    if side:
+                        fingers.add(("_".join(name.split("_")[:2]), side))
         return any((g, "1") in fingers and (g, "2") in fingers for g, _ in fingers)
 
     def touching_robot(self, body: str) -> bool:

@@ -19,6 +19,7 @@ STILL_WITHIN = 0.02  # metres the pan may move while it is taken
 @register_task("hold_dustpan")
 class HoldDustpan(SweepTask):
     bimanual = False
+    other_robots = ("ur5e",)  # its expert also runs on the UR5e twin (results/experts_ur5e.json)
     added_skill = True
 
     def initialize_episode(self, sim: SimHandle, rng: np.random.Generator) -> None:
