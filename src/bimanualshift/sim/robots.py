@@ -70,5 +70,5 @@ PANDA = register_robot(RobotSpec(name="panda", arm="Panda", gripper="PandaGrippe
 # view is 70 x 55 degrees; the 256x256 crop keeps the vertical 55), no wrist cameras.
 UR5E = register_robot(RobotSpec(
     name="ur5e", arm="UR5e", gripper="Robotiq140Gripper", gripper_open_direction=(-1.0, 1.0),
-    static_cameras={"front": ((1.0, 0.0, TABLE_TOP_Z + 0.65), (-0.05, 0.0, TABLE_TOP_Z + 0.05))},
+    static_cameras={"front": ((0.85, 0.0, TABLE_TOP_Z + 0.75), (-0.12, 0.0, TABLE_TOP_Z))},
     wrist_cameras=False, image_size=256, camera_fovy=55.0))

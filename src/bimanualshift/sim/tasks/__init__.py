@@ -9,6 +9,9 @@ from bimanualshift.sim.tasks.bimanual import (  # noqa: F401
     sweep_to_dustpan,
     take_tray_out_of_oven,
 )
+from bimanualshift.sim.tasks.realworld import (  # noqa: F401
+    vegetable_sorting,
+)
 from bimanualshift.sim.tasks.unimanual import (  # noqa: F401
     drag_dustpan,
     hold_dustpan,
