@@ -266,6 +266,7 @@ TASKS: dict[str, type[Task]] = {}
 T = TypeVar("T", bound=type[Task])
 
 
+REALWORLD_PACKAGE = "bimanualshift.sim.tasks.realworld"
 ROBOT_SEPARATOR = "@"  # "push_button@ur5e": the task on another robot spec it allows (``Task.other_robots``)
 
 
@@ -327,6 +328,9 @@ def task_groups() -> dict[str, list[str]]:
     for robot in sorted({c.robot for c in TASKS.values()} - {"panda"}):
         groups[f"bimanual_{robot}"] = task_names(True, robot)
         groups[f"unimanual_{robot}"] = task_names(False, robot)
+    # the paper's real-world tasks, built for its platform's twin (sim/tasks/realworld/)
+    groups["realworld"] = sorted(n for n, c in TASKS.items() if c.__module__.startswith(REALWORLD_PACKAGE)
+                                 and ROBOT_SEPARATOR not in n)
     return groups
 
 

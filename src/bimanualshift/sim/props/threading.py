@@ -1,0 +1,41 @@
+"""A square rod and a block with a square hole through it, for threading the block onto the rod. Both are smooth
+(friction 0.3): MuJoCo takes the larger coefficient of a pair, so the gripper's pads still hold them, while the
+block slides along the rod instead of jamming on it."""
+
+from __future__ import annotations
+
+from bimanualshift.sim.layout import TABLE_TOP_Z
+
+ROD_HALF_WIDTH = 0.015  # half the rod's square cross-section
+ROD_HALF_LENGTH = 0.10
+HOLE_HALF = 0.028  # half the hole's side: 1.3 cm of clearance around the rod on every side
+BAR = 0.02  # the block's wall around the hole
+BLOCK_HALF_THICKNESS = 0.0125  # half the block's depth along the hole
+BLOCK_HALF = HOLE_HALF + BAR  # half the block's outer side
+
+
+def rod_xml(name: str = "rod") -> str:
+    """The rod lies on the table along its y axis."""
+    w, half = ROD_HALF_WIDTH, ROD_HALF_LENGTH
+    return f"""
+<body name="{name}" pos="0 0 {TABLE_TOP_Z + w}">
+  <freejoint name="{name}_joint"/>
+  <inertial pos="0 0 0" mass="0.03" diaginertia="1e-4 5e-6 1e-4"/>
+  <geom name="{name}_geom" type="box" size="{w} {half} {w}" rgba="0.6 0.4 0.2 1" group="1"
+        friction="0.3 0.005 0.0001" condim="4" solref="0.01 1"/>
+</body>"""
+
+
+def block_xml(name: str = "block") -> str:
+    """The block stands on the table with its hole along its y axis: four bars around a square hole."""
+    h, b, t, o = HOLE_HALF, BAR, BLOCK_HALF_THICKNESS, BLOCK_HALF
+    bars = [(f"0 0 {h + b / 2}", f"{o} {t} {b / 2}"), (f"0 0 {-h - b / 2}", f"{o} {t} {b / 2}"),
+            (f"{h + b / 2} 0 0", f"{b / 2} {t} {h}"), (f"{-h - b / 2} 0 0", f"{b / 2} {t} {h}")]
+    geoms = "".join(f'\n  <geom name="{name}_bar{k}" type="box" pos="{pos}" size="{size}" rgba="0.2 0.5 0.8 1" '
+                    f'group="1" friction="0.3 0.005 0.0001" condim="4" solref="0.01 1"/>'
+                    for k, (pos, size) in enumerate(bars))
+    return f"""
+<body name="{name}" pos="0 0 {TABLE_TOP_Z + o}">
+  <freejoint name="{name}_joint"/>
+  <inertial pos="0 0 0" mass="0.03" diaginertia="3e-5 5e-5 3e-5"/>{geoms}
+</body>"""
