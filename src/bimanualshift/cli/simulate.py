@@ -116,7 +116,8 @@ def snapshot(args: SnapshotArgs) -> None:
     out.mkdir(parents=True, exist_ok=True)
     for task, env in _first_scenes(resolve_tasks(args.task), args.image_size, args.perturb, args.seed):
         views = env.cameras.render(env.data, depth_and_segmentation=False)
-        image = np.concatenate([views[c].rgb for c in args.cameras], axis=1)
+        shown = [c for c in args.cameras if c in views] or list(views)[:1]  # the UR5e twin has one camera
+        image = np.concatenate([views[c].rgb for c in shown], axis=1)
         path = out / f"{task}{'' if args.perturb == 'none' else '_' + args.perturb}.png"
         iio.imwrite(path, image)
         print(f"{path}: {env.task.instruction()!r}")
