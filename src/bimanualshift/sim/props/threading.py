@@ -1,5 +1,5 @@
 """A square rod and a block with a square hole through it, for threading the block onto the rod. Both are smooth
-(friction 0.3): MuJoCo takes the larger coefficient of a pair, so the gripper's pads still hold them, while the
+(friction 0.1): MuJoCo takes the larger coefficient of a pair, so the gripper's pads still hold them, while the
 block slides along the rod instead of jamming on it."""
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ def rod_xml(name: str = "rod") -> str:
   <freejoint name="{name}_joint"/>
   <inertial pos="0 0 0" mass="0.03" diaginertia="1e-4 5e-6 1e-4"/>
   <geom name="{name}_geom" type="box" size="{w} {half} {w}" rgba="0.6 0.4 0.2 1" group="1"
-        friction="0.3 0.005 0.0001" condim="4" solref="0.01 1"/>
+        friction="0.1 0.005 0.0001" condim="4" solref="0.01 1"/>
 </body>"""
 
 
@@ -32,7 +32,7 @@ def block_xml(name: str = "block") -> str:
     bars = [(f"0 0 {h + b / 2}", f"{o} {t} {b / 2}"), (f"0 0 {-h - b / 2}", f"{o} {t} {b / 2}"),
             (f"{h + b / 2} 0 0", f"{b / 2} {t} {h}"), (f"{-h - b / 2} 0 0", f"{b / 2} {t} {h}")]
     geoms = "".join(f'\n  <geom name="{name}_bar{k}" type="box" pos="{pos}" size="{size}" rgba="0.2 0.5 0.8 1" '
-                    f'group="1" friction="0.3 0.005 0.0001" condim="4" solref="0.01 1"/>'
+                    f'group="1" friction="0.1 0.005 0.0001" condim="4" solref="0.01 1"/>'
                     for k, (pos, size) in enumerate(bars))
     return f"""
 <body name="{name}" pos="0 0 {TABLE_TOP_Z + o}">

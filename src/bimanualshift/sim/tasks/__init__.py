@@ -10,6 +10,7 @@ from bimanualshift.sim.tasks.bimanual import (  # noqa: F401
     take_tray_out_of_oven,
 )
 from bimanualshift.sim.tasks.realworld import (  # noqa: F401
+    block_threading,
     vegetable_sorting,
 )
 from bimanualshift.sim.tasks.unimanual import (  # noqa: F401
