@@ -14,9 +14,18 @@ BLOCK_HALF_THICKNESS = 0.0125  # half the block's depth along the hole
 BLOCK_HALF = HOLE_HALF + BAR  # half the block's outer side
 
 
-def rod_xml(name: str = "rod") -> str:
-    """The rod lies on the table along its y axis."""
+def rod_xml(name: str = "rod", mounted: bool = False) -> str:
+    """The rod lies on the table along its y axis; ``mounted``, it is fixed in the air (placed per episode), on a
+    post under its far (+y) end."""
     w, half = ROD_HALF_WIDTH, ROD_HALF_LENGTH
+    if mounted:
+        return f"""
+<body name="{name}" pos="0 0 {TABLE_TOP_Z + 0.15}">
+  <geom name="{name}_geom" type="box" size="{w} {half} {w}" rgba="0.6 0.4 0.2 1" group="1"
+        friction="0.1 0.005 0.0001" condim="4" solref="0.01 1"/>
+  <geom name="{name}_post" type="box" pos="0 {half - w} -0.075" size="{w} {w} 0.075" rgba="0.3 0.3 0.3 1"
+        group="1"/>
+</body>"""
     return f"""
 <body name="{name}" pos="0 0 {TABLE_TOP_Z + w}">
   <freejoint name="{name}_joint"/>

@@ -16,13 +16,16 @@ from bimanualshift.sim.tasks.realworld import (  # noqa: F401
 from bimanualshift.sim.tasks.unimanual import (  # noqa: F401
     drag_dustpan,
     hold_dustpan,
+    hold_rod,
     open_oven_door,
     pick_cube,
     pick_up_small_plate,
+    place_vegetable,
     pull_rope_end,
     push_ball_aside,
     push_button,
     slide_block,
     sweep_dirt,
     take_tray_out_of_open_oven,
+    thread_block,
 )

@@ -44,6 +44,32 @@ ALIGNED_WITHIN = 0.012  # the hole's centre off the rod's axis by at most this (
 INSERTED_BY = BLOCK_HALF_THICKNESS + 0.005
 
 
+def rod_axis(sim: SimHandle) -> tuple[np.ndarray, np.ndarray]:
+    """The rod's free (-y) tip and its unit axis pointing from the tip along the rod."""
+    axis = sim.data.xmat[sim.body_id("rod")].reshape(3, 3)[:, 1]  # the rod's own y
+    return sim.body_pos("rod") - ROD_HALF_LENGTH * axis, axis
+
+
+def block_on_axis(sim: SimHandle) -> tuple[float, float]:
+    """(how far the block's centre is off the rod's axis across the square hole's sides, the larger of the two,
+    and how far past the tip along the axis)."""
+    tip, axis = rod_axis(sim)
+    offset = sim.body_pos("block") - tip
+    along = float(offset @ axis)
+    mat = sim.data.xmat[sim.body_id("block")].reshape(3, 3)
+    across = offset - along * axis
+    return float(max(abs(across @ mat[:, 0]), abs(across @ mat[:, 2]))), along
+
+
+def threading_stages(sim: SimHandle, lifted: bool) -> list[bool]:
+    """Approach, alignment and insertion of the block on the rod (``lifted``: what approach needs besides)."""
+    off_axis, along = block_on_axis(sim)
+    approach = lifted and -3 * BEFORE_TIP < along < ROD_HALF_LENGTH and off_axis < 0.05
+    aligned = approach and off_axis < ALIGNED_WITHIN
+    inserted = aligned and along > INSERTED_BY and off_axis < HOLE_HALF - ROD_HALF_WIDTH + 0.002
+    return [bool(approach), bool(aligned), bool(inserted)]
+
+
 def hand_down(yaw: float) -> np.ndarray:
     """The gripper pointing down, turned by ``yaw`` (not wrapped, unlike ``down_quat``: the Robotiq holds an
     object a little off its centre line, so a hand turned half a turn would hold it on the other side)."""
@@ -83,29 +109,12 @@ class BlockThreading(Task):
         return {"left": ["rod"], "right": ["block", "rod"]}
 
     # ---- judging -----------------------------------------------------------------------------------------------
-    def _rod_axis(self, sim: SimHandle) -> tuple[np.ndarray, np.ndarray]:
-        """The rod's free (-y) tip and its unit axis pointing from the tip along the rod."""
-        mat = sim.data.xmat[sim.body_id("rod")].reshape(3, 3)
-        axis = mat[:, 1]  # the rod's own y
-        return sim.body_pos("rod") - ROD_HALF_LENGTH * axis, axis
-
     def _block_on_axis(self, sim: SimHandle) -> tuple[float, float]:
-        """(how far the block's centre is off the rod's axis, across the square hole's sides (the larger of the
-        two), and how far past the tip along the axis)."""
-        tip, axis = self._rod_axis(sim)
-        offset = sim.body_pos("block") - tip
-        along = float(offset @ axis)
-        mat = sim.data.xmat[sim.body_id("block")].reshape(3, 3)
-        across = offset - along * axis
-        return float(max(abs(across @ mat[:, 0]), abs(across @ mat[:, 2]))), along
+        return block_on_axis(sim)
 
     def evaluate_stages(self, sim: SimHandle) -> list[bool]:
         lifted = min(sim.body_pos("rod")[2], sim.body_pos("block")[2] - BLOCK_HALF) > TABLE_TOP_Z + 0.05
-        off_axis, along = self._block_on_axis(sim)
-        approach = lifted and -3 * BEFORE_TIP < along < ROD_HALF_LENGTH and off_axis < 0.05
-        aligned = approach and off_axis < ALIGNED_WITHIN
-        inserted = aligned and along > INSERTED_BY and off_axis < HOLE_HALF - ROD_HALF_WIDTH + 0.002
-        return [bool(approach), bool(aligned), bool(inserted)]
+        return threading_stages(sim, lifted)
 
     def evaluate_success(self, sim: SimHandle) -> bool:
         return self.evaluate_stages(sim)[-1]
@@ -115,22 +124,22 @@ class BlockThreading(Task):
         rod, block = sim.body_pos("rod"), sim.body_pos("block")
         rod_yaw = Rotation.from_matrix(sim.data.xmat[sim.body_id("rod")].reshape(3, 3)).as_euler("xyz")[2]
         block_yaw = Rotation.from_matrix(sim.data.xmat[sim.body_id("block")].reshape(3, 3)).as_euler("xyz")[2]
-        rod_axis = np.array([-np.sin(rod_yaw), np.cos(rod_yaw), 0.0])
+        along_rod = np.array([-np.sin(rod_yaw), np.cos(rod_yaw), 0.0])
         # left: grip the rod near its +y end, fingers closing across it; hold it level, pointing along -y
-        grip = rod + (ROD_HALF_LENGTH - ROD_GRIP_FROM_END) * rod_axis
+        grip = rod + (ROD_HALF_LENGTH - ROD_GRIP_FROM_END) * along_rod
         grip[2] = max(rod[2] - SITE_BELOW_AXIS, TABLE_TOP_Z + SITE_ABOVE_TABLE)
         left_quat = hand_down(rod_yaw + np.pi / 2)
         held_grip = np.r_[grip[:2], TABLE_TOP_Z + HOLD_HEIGHT]
         held_axis_z = held_grip[2] - TIP_BELOW_SITE
         across = np.array([np.cos(rod_yaw), np.sin(rod_yaw), 0.0])
-        tip = np.r_[held_grip[:2] - (2 * ROD_HALF_LENGTH - ROD_GRIP_FROM_END) * rod_axis[:2], held_axis_z]
-        tip = tip + TIP_ACROSS * across + TIP_ALONG * rod_axis
+        tip = np.r_[held_grip[:2] - (2 * ROD_HALF_LENGTH - ROD_GRIP_FROM_END) * along_rod[:2], held_axis_z]
+        tip = tip + TIP_ACROSS * across + TIP_ALONG * along_rod
         # right: grip the block by its sides, fingers closing across the hole's axis, so that neither finger
         # stands in the rod's way; the site a little above the hole's centre
         right_quat = hand_down(block_yaw + np.pi / 2)
         grip_r = block + [0.0, 0.0, GRIP_ABOVE_CENTRE]
-        aligned = tip - BEFORE_TIP * rod_axis + [0.0, 0.0, BLOCK_BELOW_SITE]
-        threaded = tip + ONTO_ROD * rod_axis + [0.0, 0.0, BLOCK_BELOW_SITE]
+        aligned = tip - BEFORE_TIP * along_rod + [0.0, 0.0, BLOCK_BELOW_SITE]
+        threaded = tip + ONTO_ROD * along_rod + [0.0, 0.0, BLOCK_BELOW_SITE]
         level = hand_down(rod_yaw + np.pi / 2)  # the block's hole along the rod
         return [
             {"left": ArmAction(grip + [0, 0, 0.08], left_quat, 1.0, 1.0),

@@ -76,10 +76,7 @@ class VegetableSorting(Task):
         return [t["left"], t["right"], "bin"]
 
     def in_bin(self, sim: SimHandle, category: str, arm: str) -> bool:
-        pos = sim.body_pos(category)
-        centre = sim.body_pos(BINS[arm])
-        inside = np.all(np.abs(pos[:2] - centre[:2]) < BIN_INNER_HALF)
-        return bool(inside and pos[2] < TABLE_TOP_Z + 2 * BIN_FLOOR + BIN_HEIGHT)
+        return in_bin(sim, category, BINS[arm])
 
     def evaluate_success(self, sim: SimHandle) -> bool:
         return all(self.in_bin(sim, self.episode["targets"][arm], arm) for arm in SIDE)
@@ -88,18 +85,25 @@ class VegetableSorting(Task):
         return {arm: [self.episode["targets"][arm], BINS[arm]] for arm in SIDE}
 
     def expert_keyframes(self, sim: SimHandle) -> list[Keyframe]:
-        plan: dict[str, list[ArmAction]] = {}
-        for arm in SIDE:
-            category = self.episode["targets"][arm]
-            pos = sim.body_pos(category)
-            yaw = Rotation.from_matrix(sim.data.xmat[sim.body_id(category)].reshape(3, 3)).as_euler("xyz")[2]
-            quat = down_quat(yaw)  # fingers close across the vegetable's long axis
-            # the Robotiq's pads reach 7 cm above its site: the site just above the table puts the pads around
-            # the vegetable's middle
-            grasp = np.r_[pos[:2], max(pos[2] - GRASP_BELOW_CENTRE, TABLE_TOP_Z + GRASP_CLEARANCE)]
-            above_bin = sim.body_pos(BINS[arm]) + [0.0, 0.0, CARRY_HEIGHT]
-            plan[arm] = [ArmAction(grasp + [0.0, 0.0, 0.10], quat, 1.0, 1.0),
-                         ArmAction(grasp, quat, 0.0, 0.0),  # down, then close
-                         ArmAction(above_bin, down_quat(0.0), 0.0, 1.0),
-                         ArmAction(above_bin, down_quat(0.0), 1.0, 1.0)]  # open: it drops into the bin
+        plan = {arm: place_keyframes(sim, self.episode["targets"][arm], BINS[arm]) for arm in SIDE}
         return [{arm: plan[arm][k] for arm in SIDE} for k in range(4)]
+
+
+def in_bin(sim: SimHandle, body: str, bin_name: str) -> bool:
+    """Whether ``body``'s centre is inside the bin's walls and below their rim."""
+    pos, centre = sim.body_pos(body), sim.body_pos(bin_name)
+    inside = np.all(np.abs(pos[:2] - centre[:2]) < BIN_INNER_HALF)
+    return bool(inside and pos[2] < TABLE_TOP_Z + 2 * BIN_FLOOR + BIN_HEIGHT)
+
+
+def place_keyframes(sim: SimHandle, body: str, bin_name: str) -> list[ArmAction]:
+    """One arm's four keyframes: above the vegetable, down and close, over the bin, open (it drops in)."""
+    pos = sim.body_pos(body)
+    yaw = Rotation.from_matrix(sim.data.xmat[sim.body_id(body)].reshape(3, 3)).as_euler("xyz")[2]
+    quat = down_quat(yaw)  # fingers close across the vegetable's long axis
+    # the Robotiq's pads reach 7 cm above its site: the site just above the table puts the pads around the
+    # vegetable's middle
+    grasp = np.r_[pos[:2], max(pos[2] - GRASP_BELOW_CENTRE, TABLE_TOP_Z + GRASP_CLEARANCE)]
+    above_bin = sim.body_pos(bin_name) + [0.0, 0.0, CARRY_HEIGHT]
+    return [ArmAction(grasp + [0.0, 0.0, 0.10], quat, 1.0, 1.0), ArmAction(grasp, quat, 0.0, 0.0),
+            ArmAction(above_bin, down_quat(0.0), 0.0, 1.0), ArmAction(above_bin, down_quat(0.0), 1.0, 1.0)]

@@ -1,0 +1,87 @@
+"""Single arm, on the UR5e twin: pick up the block and thread it onto a rod mounted in the air (insert), the skill
+of `block_threading`'s right arm. Block and rod lie where that task puts them from its right arm's base, on
+either side: the block 8-16 cm out, the rod's tip 30-38 cm out at the height the other arm holds it."""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from bimanualshift.sim.layout import TABLE_TOP_Z
+from bimanualshift.sim.props.threading import BLOCK_HALF, ROD_HALF_LENGTH, block_xml, rod_xml
+from bimanualshift.sim.task import ArmAction, Keyframe, SimHandle, Task, register_task
+from bimanualshift.sim.tasks.realworld.block_threading import (
+    BEFORE_TIP,
+    BLOCK_BELOW_SITE,
+    GRIP_ABOVE_CENTRE,
+    HOLD_HEIGHT,
+    ONTO_ROD,
+    TIP_BELOW_SITE,
+    YAW,
+    hand_down,
+    threading_stages,
+)
+
+BLOCK_X, BLOCK_Y = (-0.04, 0.06), (0.08, 0.16)  # |y| from the arm's base
+TIP_X, TIP_Y = (-0.03, 0.07), (0.30, 0.38)
+
+
+@register_task("thread_block")
+class ThreadBlock(Task):
+    bimanual = False
+    robot = "ur5e"
+    stage_names = ("approach", "alignment", "insertion")
+
+    def scene_xml(self) -> str:
+        return rod_xml("rod", mounted=True) + block_xml("block")
+
+    def initialize_episode(self, sim: SimHandle, rng: np.random.Generator) -> None:
+        side = 1.0 if rng.random() < 0.5 else -1.0
+        block = np.array([rng.uniform(*BLOCK_X), side * rng.uniform(*BLOCK_Y)])
+        yaws = rng.uniform(-YAW, YAW, size=2)
+        sim.set_free_pose("block_joint", np.r_[block, TABLE_TOP_Z + BLOCK_HALF + 0.001],
+                          Rotation.from_euler("z", yaws[0]).as_quat())
+        # the mounted rod: its tip towards the arm, held where the other arm of block_threading holds it
+        yaw = yaws[1] + (0.0 if side > 0 else np.pi)
+        axis = np.array([-np.sin(yaw), np.cos(yaw), 0.0])
+        tip = np.array([rng.uniform(*TIP_X), side * rng.uniform(*TIP_Y), TABLE_TOP_Z + HOLD_HEIGHT - TIP_BELOW_SITE])
+        rod = sim.body_id("rod")
+        sim.model.body_pos[rod] = tip + ROD_HALF_LENGTH * axis
+        sim.model.body_quat[rod] = np.roll(Rotation.from_euler("z", yaw).as_quat(), 1)
+        rod_colour, block_colour = self.pick_colours(rng, 2)
+        sim.set_rgb("rod_geom", self.palette[rod_colour])
+        sim.set_rgb_prefix("block_bar", self.palette[block_colour])
+        self.episode = {"colours": {"rod": rod_colour, "block": block_colour}}
+
+    def instruction(self) -> str:
+        return "thread the block onto the rod"
+
+    def goal_nouns(self) -> list[str]:
+        return ["block", "rod"]
+
+    def evaluate_stages(self, sim: SimHandle) -> list[bool]:
+        return threading_stages(sim, sim.body_pos("block")[2] - BLOCK_HALF > TABLE_TOP_Z + 0.05)
+
+    def evaluate_success(self, sim: SimHandle) -> bool:
+        return self.evaluate_stages(sim)[-1]
+
+    def arm_goals(self, sim: SimHandle) -> dict[str, list[str]]:
+        return {"right": ["block", "rod"]}
+
+    def expert_keyframes(self, sim: SimHandle) -> list[Keyframe]:
+        block = sim.body_pos("block")
+        block_yaw = Rotation.from_matrix(sim.data.xmat[sim.body_id("block")].reshape(3, 3)).as_euler("xyz")[2]
+        mat = sim.data.xmat[sim.body_id("rod")].reshape(3, 3)
+        along = mat[:, 1]
+        tip = sim.body_pos("rod") - ROD_HALF_LENGTH * along
+        rod_yaw = float(np.arctan2(-along[0], along[1]))
+        grip = block + [0.0, 0.0, GRIP_ABOVE_CENTRE]
+        up = np.array([0.0, 0.0, BLOCK_BELOW_SITE])
+        # the hole is the same either way round: turn the hand the shorter way from its grasp
+        held_yaw = block_yaw + np.pi / 2
+        level_yaw = min((rod_yaw + np.pi / 2 + k * np.pi for k in (-2, -1, 0, 1, 2)), key=lambda y: abs(y - held_yaw))
+        level = hand_down(level_yaw)
+        return [{"right": ArmAction(grip + [0, 0, 0.08], hand_down(block_yaw + np.pi / 2), 1.0, 1.0)},
+                {"right": ArmAction(grip, hand_down(block_yaw + np.pi / 2), 0.0, 0.0)},
+                {"right": ArmAction(tip - BEFORE_TIP * along + up, level, 0.0, 1.0)},
+                {"right": ArmAction(tip + ONTO_ROD * along + up, level, 0.0, 0.0)}]
