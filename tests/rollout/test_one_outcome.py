@@ -77,3 +77,43 @@ def test_eval_bench_and_deploy_give_one_outcome_and_the_same_actions_per_seed(tm
     assert bench_outcomes(tmp_path, workers=1) == reference, "bench with 1 worker"
     assert bench_outcomes(tmp_path, workers=2) == reference, "bench with 2 workers"
     assert deploy_outcomes() == reference, "serve + deploy --robot sim"
+
+
+def test_a_trained_bimanualshift_checkpoint_gives_one_outcome_through_eval_workers_and_the_server(
+        demo_root: Path, tmp_path: Path) -> None:
+    """The method itself (prior per arm through the projection, retrieval, Manager and G), trained for two steps
+    on the shipped prior: `eval` on 1 and 2 threads, the benchmark's episode function in 2 spawned workers and
+    `serve` + `deploy` execute bit-identical actions."""
+    from bimanualshift.evaluation.bench import BenchJob, run_bench_episode
+    from bimanualshift.training.configs import TrainConfig
+    from bimanualshift.training.request import TrainRequest
+    from bimanualshift.training.residual_trainer import train_residual
+    from bimanualshift.utils.config_files import config_from_flat
+    from bimanualshift.utils.workers import run_jobs
+
+    best = train_residual(config_from_flat(
+        TrainConfig, prior=PRIOR, data=str(demo_root / "bimanual"), validation_data=str(demo_root / "bimanual"),
+        out=str(tmp_path / "run"), steps=2, checkpoint_every=2, demos=2, retrieval=True, retrieval_threshold=-1.0))
+    seeds = split_seeds("test", EPISODES)
+
+    def evaluated(threads: int) -> dict[int, tuple[bool, int, str]]:
+        out = tmp_path / f"eval_{threads}.json"
+        with torch_threads(threads):
+            evaluate(EvalArgs(method="bimanualshift", checkpoint=str(best), task=[TASK], episodes=EPISODES,
+                              max_keyframes=CAP, out=str(out)))
+        return outcomes(json.loads(out.read_text())["episodes"])
+
+    reference = evaluated(1)
+    assert evaluated(2) == reference, "eval on 2 threads"
+    request = TrainRequest(task=TASK, data="", validation_data="", demos=2, prior=PRIOR, out=str(best.parent),
+                           steps=2)
+    jobs = [BenchJob("bimanualshift", TASK, seed, str(best), request.__dict__, max_keyframes=CAP) for seed in seeds]
+    assert outcomes(run_jobs(run_bench_episode, jobs, workers=2, chunksize=1)) == reference, "2 benchmark workers"
+    server = ServerProcess(["--checkpoint", str(best), "--method", "bimanualshift"], threads=2)
+    client = PolicyClient(f"ws://127.0.0.1:{server.port}")
+    try:
+        records = deploy_sim(TASK, client, seeds, max_keyframes=CAP)
+    finally:
+        client.close()
+        server.stop()
+    assert {r.seed: (r.success, r.keyframes, r.actions_sha256) for r in records} == reference, "serve + deploy"
