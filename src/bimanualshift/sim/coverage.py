@@ -15,6 +15,7 @@ import numpy as np
 
 from bimanualshift.sim.env import ManipulationEnv
 from bimanualshift.sim.props.rope import rope_ends
+from bimanualshift.sim.props.vegetables import VEGETABLES
 
 # Bimanual task -> {kind of goal object: the single-arm task acting on the same kind}.
 SKILL_PAIRS: dict[str, dict[str, str]] = {
@@ -25,9 +26,14 @@ SKILL_PAIRS: dict[str, dict[str, str]] = {
     "straighten_rope": {"rope_end": "pull_rope_end"},
     "sweep_to_dustpan": {"dustpan": "hold_dustpan", "brush": "sweep_dirt"},
     "buttons_then_lift_ball": {"button": "push_button", "ball": "push_ball_aside"},
+    # the paper's real-world tasks on the UR5e twin, against the twin's single-arm skills
+    "vegetable_sorting": {"vegetable": "place_vegetable", "bin": "place_vegetable"},
+    "block_threading": {"rod": "hold_rod", "block": "thread_block"},
 }
 # Kinds whose turn about the vertical the cameras cannot see (round) are compared by position only.
 ROUND_KINDS = frozenset({"button", "plate", "ball", "rope_end"})
+# Goal classes compared as one kind: the vegetables a hand grasps the same way (down, across the long axis)
+KIND_ALIASES = {category: "vegetable" for category in VEGETABLES}
 # A bimanual pose is covered when a single-arm sample lies this close (x, y in metres; yaw in radians).
 NEAR_XY = 0.05
 NEAR_YAW = 0.20
@@ -37,7 +43,8 @@ def goal_kind(goal: str) -> str:
     """``button_1`` -> ``button``, ``rope:head`` -> ``rope_end``."""
     if goal.startswith("rope:"):
         return "rope_end"
-    return goal.rsplit("_", 1)[0] if goal[-1].isdigit() else goal
+    kind = goal.rsplit("_", 1)[0] if goal[-1].isdigit() else goal
+    return KIND_ALIASES.get(kind, kind)
 
 
 def _yaw(quat_wxyz: np.ndarray) -> float:

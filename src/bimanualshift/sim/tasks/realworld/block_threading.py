@@ -106,7 +106,9 @@ class BlockThreading(Task):
         return ["block", "rod"]
 
     def arm_goals(self, sim: SimHandle) -> dict[str, list[str]]:
-        return {"left": ["rod"], "right": ["block", "rod"]}
+        # what each arm picks up (the right arm threads onto the rod once the left holds it up: its skill,
+        # thread_block, has the rod mounted there)
+        return {"left": ["rod"], "right": ["block"]}
 
     # ---- judging -----------------------------------------------------------------------------------------------
     def _block_on_axis(self, sim: SimHandle) -> tuple[float, float]:
