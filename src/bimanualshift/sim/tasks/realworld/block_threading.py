@@ -77,11 +77,41 @@ def hand_down(yaw: float) -> np.ndarray:
     return q if q[3] >= 0 else -q
 
 
-@register_task("block_threading")
-class BlockThreading(Task):
-    bimanual = True
+def rod_grip(sim: SimHandle) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+    """Where a hand grips the rod lying on the table (near its middle, fingers across it), how it is turned, where
+    it holds the rod up, and the rod's yaw."""
+    rod = sim.body_pos("rod")
+    yaw = float(Rotation.from_matrix(sim.data.xmat[sim.body_id("rod")].reshape(3, 3)).as_euler("xyz")[2])
+    grip = rod + (ROD_HALF_LENGTH - ROD_GRIP_FROM_END) * np.array([-np.sin(yaw), np.cos(yaw), 0.0])
+    grip[2] = max(rod[2] - SITE_BELOW_AXIS, TABLE_TOP_Z + SITE_ABOVE_TABLE)
+    return grip, hand_down(yaw + np.pi / 2), np.r_[grip[:2], TABLE_TOP_Z + HOLD_HEIGHT], yaw
+
+
+class ThreadingTask(Task):
+    """What the threading tasks share: the instruction, the goal nouns, the colours and the three stages."""
+
     robot = "ur5e"
     stage_names = ("approach", "alignment", "insertion")
+
+    def paint(self, sim: SimHandle, rng: np.random.Generator) -> None:
+        rod_colour, block_colour = self.pick_colours(rng, 2)
+        sim.set_rgb("rod_geom", self.palette[rod_colour])
+        sim.set_rgb_prefix("block_bar", self.palette[block_colour])
+        self.episode = {"colours": {"rod": rod_colour, "block": block_colour}}
+
+    def instruction(self) -> str:
+        return "thread the block onto the rod"
+
+    def goal_nouns(self) -> list[str]:
+        return ["block", "rod"]
+
+    def evaluate_success(self, sim: SimHandle) -> bool:
+        return self.evaluate_stages(sim)[-1]
+
+
+@register_task("block_threading")
+class BlockThreading(ThreadingTask):
+    bimanual = True
 
     def scene_xml(self) -> str:
         return rod_xml("rod") + block_xml("block")
@@ -94,16 +124,7 @@ class BlockThreading(Task):
                           Rotation.from_euler("z", yaws[0]).as_quat())
         sim.set_free_pose("block_joint", np.r_[block, TABLE_TOP_Z + BLOCK_HALF + 0.001],
                           Rotation.from_euler("z", yaws[1]).as_quat())
-        rod_colour, block_colour = self.pick_colours(rng, 2)
-        sim.set_rgb("rod_geom", self.palette[rod_colour])
-        sim.set_rgb_prefix("block_bar", self.palette[block_colour])
-        self.episode = {"colours": {"rod": rod_colour, "block": block_colour}}
-
-    def instruction(self) -> str:
-        return "thread the block onto the rod"
-
-    def goal_nouns(self) -> list[str]:
-        return ["block", "rod"]
+        self.paint(sim, rng)
 
     def arm_goals(self, sim: SimHandle) -> dict[str, list[str]]:
         # what each arm picks up (the right arm threads onto the rod once the left holds it up: its skill,
@@ -118,20 +139,13 @@ class BlockThreading(Task):
         lifted = min(sim.body_pos("rod")[2], sim.body_pos("block")[2] - BLOCK_HALF) > TABLE_TOP_Z + 0.05
         return threading_stages(sim, lifted)
 
-    def evaluate_success(self, sim: SimHandle) -> bool:
-        return self.evaluate_stages(sim)[-1]
-
     # ---- the scripted expert ----------------------------------------------------------------------------------
     def expert_keyframes(self, sim: SimHandle) -> list[Keyframe]:
-        rod, block = sim.body_pos("rod"), sim.body_pos("block")
-        rod_yaw = Rotation.from_matrix(sim.data.xmat[sim.body_id("rod")].reshape(3, 3)).as_euler("xyz")[2]
+        block = sim.body_pos("block")
         block_yaw = Rotation.from_matrix(sim.data.xmat[sim.body_id("block")].reshape(3, 3)).as_euler("xyz")[2]
+        # left: grip the rod near its middle, fingers closing across it; hold it level, its tip towards -y
+        grip, left_quat, held_grip, rod_yaw = rod_grip(sim)
         along_rod = np.array([-np.sin(rod_yaw), np.cos(rod_yaw), 0.0])
-        # left: grip the rod near its +y end, fingers closing across it; hold it level, pointing along -y
-        grip = rod + (ROD_HALF_LENGTH - ROD_GRIP_FROM_END) * along_rod
-        grip[2] = max(rod[2] - SITE_BELOW_AXIS, TABLE_TOP_Z + SITE_ABOVE_TABLE)
-        left_quat = hand_down(rod_yaw + np.pi / 2)
-        held_grip = np.r_[grip[:2], TABLE_TOP_Z + HOLD_HEIGHT]
         held_axis_z = held_grip[2] - TIP_BELOW_SITE
         across = np.array([np.cos(rod_yaw), np.sin(rod_yaw), 0.0])
         tip = np.r_[held_grip[:2] - (2 * ROD_HALF_LENGTH - ROD_GRIP_FROM_END) * along_rod[:2], held_axis_z]

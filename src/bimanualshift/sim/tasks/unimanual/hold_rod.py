@@ -8,16 +8,9 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from bimanualshift.sim.layout import TABLE_TOP_Z
-from bimanualshift.sim.props.threading import ROD_HALF_LENGTH, ROD_HALF_WIDTH, rod_xml
+from bimanualshift.sim.props.threading import ROD_HALF_WIDTH, rod_xml
 from bimanualshift.sim.task import ArmAction, Keyframe, SimHandle, Task, register_task
-from bimanualshift.sim.tasks.realworld.block_threading import (
-    HOLD_HEIGHT,
-    ROD_GRIP_FROM_END,
-    SITE_ABOVE_TABLE,
-    SITE_BELOW_AXIS,
-    YAW,
-    hand_down,
-)
+from bimanualshift.sim.tasks.realworld.block_threading import YAW, rod_grip
 
 ROD_X, ROD_Y = (-0.04, 0.06), (0.12, 0.17)  # |y| from the arm's base
 LEVEL_WITHIN = np.sin(np.deg2rad(10.0))  # the rod's axis within 10 degrees of level
@@ -57,13 +50,7 @@ class HoldRod(Task):
         return {"right": ["rod"]}
 
     def expert_keyframes(self, sim: SimHandle) -> list[Keyframe]:
-        rod = sim.body_pos("rod")
-        yaw = Rotation.from_matrix(sim.data.xmat[sim.body_id("rod")].reshape(3, 3)).as_euler("xyz")[2]
-        along = np.array([-np.sin(yaw), np.cos(yaw), 0.0])
-        grip = rod + (ROD_HALF_LENGTH - ROD_GRIP_FROM_END) * along
-        grip[2] = max(rod[2] - SITE_BELOW_AXIS, TABLE_TOP_Z + SITE_ABOVE_TABLE)
-        quat = hand_down(yaw + np.pi / 2)
-        held = np.r_[grip[:2], TABLE_TOP_Z + HOLD_HEIGHT]
+        grip, quat, held, _ = rod_grip(sim)
         return [{"right": ArmAction(grip + [0, 0, 0.08], quat, 1.0, 1.0)},
                 {"right": ArmAction(grip, quat, 0.0, 0.0)},
                 {"right": ArmAction(held, quat, 0.0, 1.0)}]

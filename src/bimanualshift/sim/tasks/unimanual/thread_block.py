@@ -9,7 +9,7 @@ from scipy.spatial.transform import Rotation
 
 from bimanualshift.sim.layout import TABLE_TOP_Z
 from bimanualshift.sim.props.threading import BLOCK_HALF, ROD_HALF_LENGTH, block_xml, rod_xml
-from bimanualshift.sim.task import ArmAction, Keyframe, SimHandle, Task, register_task
+from bimanualshift.sim.task import ArmAction, Keyframe, SimHandle, register_task
 from bimanualshift.sim.tasks.realworld.block_threading import (
     BEFORE_TIP,
     BLOCK_BELOW_SITE,
@@ -18,6 +18,7 @@ from bimanualshift.sim.tasks.realworld.block_threading import (
     ONTO_ROD,
     TIP_BELOW_SITE,
     YAW,
+    ThreadingTask,
     hand_down,
     threading_stages,
 )
@@ -27,10 +28,8 @@ TIP_X, TIP_Y = (-0.03, 0.07), (0.30, 0.38)
 
 
 @register_task("thread_block")
-class ThreadBlock(Task):
+class ThreadBlock(ThreadingTask):
     bimanual = False
-    robot = "ur5e"
-    stage_names = ("approach", "alignment", "insertion")
 
     def scene_xml(self) -> str:
         return rod_xml("rod", mounted=True) + block_xml("block")
@@ -48,22 +47,10 @@ class ThreadBlock(Task):
         rod = sim.body_id("rod")
         sim.model.body_pos[rod] = tip + ROD_HALF_LENGTH * axis
         sim.model.body_quat[rod] = np.roll(Rotation.from_euler("z", yaw).as_quat(), 1)
-        rod_colour, block_colour = self.pick_colours(rng, 2)
-        sim.set_rgb("rod_geom", self.palette[rod_colour])
-        sim.set_rgb_prefix("block_bar", self.palette[block_colour])
-        self.episode = {"colours": {"rod": rod_colour, "block": block_colour}}
-
-    def instruction(self) -> str:
-        return "thread the block onto the rod"
-
-    def goal_nouns(self) -> list[str]:
-        return ["block", "rod"]
+        self.paint(sim, rng)
 
     def evaluate_stages(self, sim: SimHandle) -> list[bool]:
         return threading_stages(sim, sim.body_pos("block")[2] - BLOCK_HALF > TABLE_TOP_Z + 0.05)
-
-    def evaluate_success(self, sim: SimHandle) -> bool:
-        return self.evaluate_stages(sim)[-1]
 
     def arm_goals(self, sim: SimHandle) -> dict[str, list[str]]:
         return {"right": ["block", "rod"]}
