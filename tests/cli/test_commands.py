@@ -60,9 +60,11 @@ def test_task_groups_resolve_to_registered_tasks() -> None:
     from bimanualshift.cli.common import resolve_tasks
     from bimanualshift.sim.task import task_names
 
-    assert resolve_tasks(["bimanual"]) == task_names(bimanual=True)
-    assert resolve_tasks(["unimanual", "lift_ball"]) == [*task_names(bimanual=False), "lift_ball"]
-    with pytest.raises(SystemExit, match="all / bimanual / unimanual"):
+    assert resolve_tasks(["bimanual"]) == task_names(bimanual=True, robot="panda")
+    assert resolve_tasks(["unimanual", "lift_ball"]) == [*task_names(bimanual=False, robot="panda"), "lift_ball"]
+    assert resolve_tasks(["realworld"]) == ["block_threading", "vegetable_sorting"]
+    assert "push_button@ur5e" in resolve_tasks(["unimanual_ur5e"])
+    with pytest.raises(SystemExit, match="one of the groups all, bimanual, unimanual, .*realworld"):
         main(["experts", "--task", "bimanul", "--episodes", "1"])
 
 

@@ -7,7 +7,8 @@ import sys
 
 
 def resolve_tasks(requested: list[str]) -> list[str]:
-    """Task names from --task: registered names, 'all', 'bimanual' or 'unimanual' (a clear error otherwise)."""
+    """Task names from --task: registered names or groups (all, bimanual, unimanual, realworld, ...; a clear error
+    otherwise)."""
     from bimanualshift.sim.task import resolve_task_names
 
     return resolve_task_names(requested)

@@ -45,9 +45,12 @@ INSERTED_BY = BLOCK_HALF_THICKNESS + 0.005
 
 
 def rod_axis(sim: SimHandle) -> tuple[np.ndarray, np.ndarray]:
-    """The rod's free (-y) tip and its unit axis pointing from the tip along the rod."""
-    axis = sim.data.xmat[sim.body_id("rod")].reshape(3, 3)[:, 1]  # the rod's own y
-    return sim.body_pos("rod") - ROD_HALF_LENGTH * axis, axis
+    """The rod's tip (its end nearer the block) and its unit axis pointing from the tip along the rod."""
+    along = sim.data.xmat[sim.body_id("rod")].reshape(3, 3)[:, 1]  # the rod's own y
+    centre, block = sim.body_pos("rod"), sim.body_pos("block")
+    ends = [centre - ROD_HALF_LENGTH * along, centre + ROD_HALF_LENGTH * along]
+    tip = min(ends, key=lambda end: float(np.linalg.norm(end - block)))
+    return tip, (centre - tip) / ROD_HALF_LENGTH
 
 
 def block_on_axis(sim: SimHandle) -> tuple[float, float]:
@@ -70,6 +73,12 @@ def threading_stages(sim: SimHandle, lifted: bool) -> list[bool]:
     return [bool(approach), bool(aligned), bool(inserted)]
 
 
+def shorter_turn(yaw: float, held: float) -> float:
+    """``yaw`` or ``yaw`` plus whole half turns, whichever is nearest ``held``: the block's hole is the same either
+    way round, so the hand holding it turns the shorter way."""
+    return min((yaw + k * np.pi for k in range(-3, 4)), key=lambda y: abs(y - held))
+
+
 def hand_down(yaw: float) -> np.ndarray:
     """The gripper pointing down, turned by ``yaw`` (not wrapped, unlike ``down_quat``: the Robotiq holds an
     object a little off its centre line, so a hand turned half a turn would hold it on the other side)."""
@@ -77,11 +86,14 @@ def hand_down(yaw: float) -> np.ndarray:
     return q if q[3] >= 0 else -q
 
 
-def rod_grip(sim: SimHandle) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
-    """Where a hand grips the rod lying on the table (near its middle, fingers across it), how it is turned, where
-    it holds the rod up, and the rod's yaw."""
+def rod_grip(sim: SimHandle, away: float = 1.0) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+    """Where a hand grips the rod lying on the table (near its middle, towards its end on the ``away`` side of
+    the table's centre line, +1 left, -1 right; fingers across it), how it is turned, where it holds the rod
+    up, and the yaw of the rod's direction towards that end."""
     rod = sim.body_pos("rod")
-    yaw = float(Rotation.from_matrix(sim.data.xmat[sim.body_id("rod")].reshape(3, 3)).as_euler("xyz")[2])
+    along = sim.data.xmat[sim.body_id("rod")].reshape(3, 3)[:, 1]
+    along = along if along[1] * away >= 0 else -along
+    yaw = float(np.arctan2(-along[0], along[1]))
     grip = rod + (ROD_HALF_LENGTH - ROD_GRIP_FROM_END) * np.array([-np.sin(yaw), np.cos(yaw), 0.0])
     grip[2] = max(rod[2] - SITE_BELOW_AXIS, TABLE_TOP_Z + SITE_ABOVE_TABLE)
     return grip, hand_down(yaw + np.pi / 2), np.r_[grip[:2], TABLE_TOP_Z + HOLD_HEIGHT], yaw
@@ -143,8 +155,11 @@ class BlockThreading(ThreadingTask):
     def expert_keyframes(self, sim: SimHandle) -> list[Keyframe]:
         block = sim.body_pos("block")
         block_yaw = Rotation.from_matrix(sim.data.xmat[sim.body_id("block")].reshape(3, 3)).as_euler("xyz")[2]
-        # left: grip the rod near its middle, fingers closing across it; hold it level, its tip towards -y
-        grip, left_quat, held_grip, rod_yaw = rod_grip(sim)
+        # The arm on the rod's side holds it (the left one, unless a left-right exchange put the rod on the right),
+        # gripping it near its middle, fingers across it, its tip towards the other arm, which threads the block.
+        away = 1.0 if sim.body_pos("rod")[1] > 0 else -1.0
+        holder, threader = ("left", "right") if away > 0 else ("right", "left")
+        grip, hold_quat, held_grip, rod_yaw = rod_grip(sim, away)
         along_rod = np.array([-np.sin(rod_yaw), np.cos(rod_yaw), 0.0])
         held_axis_z = held_grip[2] - TIP_BELOW_SITE
         across = np.array([np.cos(rod_yaw), np.sin(rod_yaw), 0.0])
@@ -152,15 +167,16 @@ class BlockThreading(ThreadingTask):
         tip = tip + TIP_ACROSS * across + TIP_ALONG * along_rod
         # right: grip the block by its sides, fingers closing across the hole's axis, so that neither finger
         # stands in the rod's way; the site a little above the hole's centre
-        right_quat = hand_down(block_yaw + np.pi / 2)
+        thread_quat = hand_down(block_yaw + np.pi / 2)
         grip_r = block + [0.0, 0.0, GRIP_ABOVE_CENTRE]
         aligned = tip - BEFORE_TIP * along_rod + [0.0, 0.0, BLOCK_BELOW_SITE]
         threaded = tip + ONTO_ROD * along_rod + [0.0, 0.0, BLOCK_BELOW_SITE]
-        level = hand_down(rod_yaw + np.pi / 2)  # the block's hole along the rod
-        return [
-            {"left": ArmAction(grip + [0, 0, 0.08], left_quat, 1.0, 1.0),
-             "right": ArmAction(grip_r + [0, 0, 0.08], right_quat, 1.0, 1.0)},
-            {"left": ArmAction(grip, left_quat, 0.0, 0.0), "right": ArmAction(grip_r, right_quat, 0.0, 0.0)},
-            {"left": ArmAction(held_grip, left_quat, 0.0, 1.0), "right": ArmAction(aligned, level, 0.0, 1.0)},
-            {"left": ArmAction(held_grip, left_quat, 0.0, 1.0), "right": ArmAction(threaded, level, 0.0, 0.0)},
+        level = hand_down(shorter_turn(rod_yaw + np.pi / 2, block_yaw + np.pi / 2))  # the hole along the rod
+        plan = [
+            (ArmAction(grip + [0, 0, 0.08], hold_quat, 1.0, 1.0),
+             ArmAction(grip_r + [0, 0, 0.08], thread_quat, 1.0, 1.0)),
+            (ArmAction(grip, hold_quat, 0.0, 0.0), ArmAction(grip_r, thread_quat, 0.0, 0.0)),
+            (ArmAction(held_grip, hold_quat, 0.0, 1.0), ArmAction(aligned, level, 0.0, 1.0)),
+            (ArmAction(held_grip, hold_quat, 0.0, 1.0), ArmAction(threaded, level, 0.0, 0.0)),
         ]
+        return [{holder: hold, threader: thread} for hold, thread in plan]

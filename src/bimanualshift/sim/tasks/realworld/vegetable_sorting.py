@@ -85,7 +85,11 @@ class VegetableSorting(Task):
         return {arm: [self.episode["targets"][arm], BINS[arm]] for arm in SIDE}
 
     def expert_keyframes(self, sim: SimHandle) -> list[Keyframe]:
-        plan = {arm: place_keyframes(sim, self.episode["targets"][arm], BINS[arm]) for arm in SIDE}
+        # each job to the arm on its bin's side (a left-right exchange moves the bins, not the arms)
+        plan = {}
+        for job in SIDE:
+            arm = "left" if sim.body_pos(BINS[job])[1] > 0 else "right"
+            plan[arm] = place_keyframes(sim, self.episode["targets"][job], BINS[job])
         return [{arm: plan[arm][k] for arm in SIDE} for k in range(4)]
 
 

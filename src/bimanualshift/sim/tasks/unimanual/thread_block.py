@@ -20,6 +20,7 @@ from bimanualshift.sim.tasks.realworld.block_threading import (
     YAW,
     ThreadingTask,
     hand_down,
+    shorter_turn,
     threading_stages,
 )
 
@@ -64,10 +65,7 @@ class ThreadBlock(ThreadingTask):
         rod_yaw = float(np.arctan2(-along[0], along[1]))
         grip = block + [0.0, 0.0, GRIP_ABOVE_CENTRE]
         up = np.array([0.0, 0.0, BLOCK_BELOW_SITE])
-        # the hole is the same either way round: turn the hand the shorter way from its grasp
-        held_yaw = block_yaw + np.pi / 2
-        level_yaw = min((rod_yaw + np.pi / 2 + k * np.pi for k in (-2, -1, 0, 1, 2)), key=lambda y: abs(y - held_yaw))
-        level = hand_down(level_yaw)
+        level = hand_down(shorter_turn(rod_yaw + np.pi / 2, block_yaw + np.pi / 2))
         return [{"right": ArmAction(grip + [0, 0, 0.08], hand_down(block_yaw + np.pi / 2), 1.0, 1.0)},
                 {"right": ArmAction(grip, hand_down(block_yaw + np.pi / 2), 0.0, 0.0)},
                 {"right": ArmAction(tip - BEFORE_TIP * along + up, level, 0.0, 1.0)},
