@@ -44,8 +44,8 @@ class ServedPolicy:
         accepted request's views are goes back in the reply's diagnostics."""
         obs = parsed.observation
         names = tuple(obs.scene.arm_names)
-        if (names != self.arms) if self.exact_arms else (not set(names) <= set(self.arms) or
-                                                          names != tuple(a for a in self.arms if a in names)):
+        # exact: the checkpoint's arms in its order; else any of them, still in its order (no other name)
+        if names != (self.arms if self.exact_arms else tuple(a for a in self.arms if a in names)):
             want = f"the arms {list(self.arms)}" + (" in this order" if self.exact_arms else
                                                     " or a subset of them, in this order")
             raise SchemaError("arms", f"{want} (the checkpoint's; send each arm under its name)", f"{list(names)}",

@@ -16,12 +16,10 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from bimanualshift.sim.robots import PANDA, RLBENCH2_CAMERAS, RobotSpec
+from bimanualshift.sim.robots import PANDA, RobotSpec
 
-# RLBench2's static cameras, the Panda spec's (each robot spec names its own rig: ``sim.robots``)
-STATIC_CAMERAS = RLBENCH2_CAMERAS
 WRIST_CAMERA = "robot{index}_eye_in_hand"
-FOVY_DEGREES = 60.0
+FOVY_DEGREES = PANDA.camera_fovy  # each robot spec names its own rig and field of view: ``sim.robots``
 PRIMITIVE_SLICES, PRIMITIVE_STACKS = 14, 6
 
 

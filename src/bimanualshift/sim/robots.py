@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from bimanualshift.sim.layout import TABLE_TOP_Z
+from bimanualshift.sim.layout import BIMANUAL_ARM_Y, TABLE_TOP_Z, UNIMANUAL_ARM_Y
 
 Placement = tuple[tuple[float, float, float], tuple[float, float, float]]  # position, look-at point (world)
 
@@ -33,8 +33,8 @@ class RobotSpec:
     # for an "open" (-1) action. A Panda's fingers go (+, -) to open, a Robotiq's linkages (-, +).
     gripper_open_direction: tuple[float, float]
     gripper_speed: float = 0.2  # fraction of the normalised range per control step (robosuite's ``speed``)
-    base_y: dict[str, float] = field(default_factory=lambda: {"left": 0.3, "right": -0.3})  # two arms
-    single_arm_y: dict[str, float] = field(default_factory=lambda: {"right": 0.0})  # one arm
+    base_y: dict[str, float] = field(default_factory=lambda: dict(BIMANUAL_ARM_Y))  # two arms
+    single_arm_y: dict[str, float] = field(default_factory=lambda: dict(UNIMANUAL_ARM_Y))  # one arm
     home_qpos: tuple[float, ...] = ()  # the arms' home joints; () keeps robosuite's ``init_qpos``
     static_cameras: dict[str, Placement] = field(default_factory=lambda: dict(RLBENCH2_CAMERAS))
     wrist_cameras: bool = True
