@@ -125,7 +125,8 @@ def study_plan(name: str, overrides: dict[str, Any] | None = None, root: str = "
     planned_tasks = [t for _, cfg in runs for t in cfg.tasks]
     partition = _partitioned(runs)
     if chosen is not None and partition:
-        unknown = [t for t in chosen if t not in planned_tasks and t not in task_groups()]
+        groups = task_groups()  # built once: it walks every registered task
+        unknown = [t for t in chosen if t not in planned_tasks and t not in groups]
         chosen = resolve_task_names(chosen)
         if unknown:
             raise ValueError(f"study {name} has no task {', '.join(unknown)}; its tasks are "
