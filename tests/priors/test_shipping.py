@@ -39,3 +39,10 @@ def test_refuses_oversized_and_incomplete_sources(tmp_path: Path) -> None:
     with pytest.raises(FileNotFoundError, match="lacks \\['README.md'\\]"):
         ship_prior(source, "tiny", destination=tmp_path / "c")
     assert not (tmp_path / "c").exists()
+
+
+def test_card_names_the_result_file_it_is_filled_from(tmp_path: Path) -> None:
+    target = ship_prior(_pretrained(tmp_path / "best"), "tiny", destination=tmp_path / "c", results="priors_ur5e")
+    card = (target / "README.md").read_text()
+    assert "<!-- results:priors_ur5e -->" in card and "<!-- results:priors -->" not in card
+    assert "results/priors_ur5e.json" in card

@@ -34,9 +34,11 @@ class ShipPriorArgs:
     source: Annotated[str, tyro.conf.Positional, tyro.conf.arg(metavar="SOURCE")]
     # the name it loads by, e.g. peract_suite
     name: Annotated[str, tyro.conf.Positional, tyro.conf.arg(metavar="NAME")]
+    # the result file under results/ whose table the card shows (`prior-report --out results/NAME.json`)
+    results: str = "priors"
 
 
 def ship_prior(args: ShipPriorArgs) -> None:
     from bimanualshift.priors.shipping import ship_prior as ship
 
-    print(f"shipped {ship(args.source, args.name)}")
+    print(f"shipped {ship(args.source, args.name, results=args.results)}")

@@ -1,6 +1,6 @@
 """Shipping a pretrained prior in the repository (`bimanualshift ship-prior`): copy its weights, config and model
 card into ``checkpoints/<name>/``, refuse anything over the size limit, and give the card a results block that
-`bimanualshift report` fills from ``results/priors.json``."""
+`bimanualshift report` fills from ``results/priors.json`` (or another result file)."""
 
 from __future__ import annotations
 
@@ -15,15 +15,16 @@ FILES = ("model.safetensors", "config.json", "README.md")
 RESULTS_BLOCK = """
 ## Measured single-arm success
 
-<!-- results:priors -->
-<!-- /results:priors -->
+<!-- results:{results} -->
+<!-- /results:{results} -->
 
-Generated from `results/priors.json` by `bimanualshift report --readme checkpoints/{name}/README.md`.
+Generated from `results/{results}.json` by `bimanualshift report --readme checkpoints/{name}/README.md`.
 """
 
 
-def ship_prior(source: str | Path, name: str, destination: str | Path = SHIPPED_DIR, max_mb: float = MAX_MB
-               ) -> Path:
+def ship_prior(source: str | Path, name: str, destination: str | Path = SHIPPED_DIR, max_mb: float = MAX_MB,
+               results: str = "priors") -> Path:
+    """``results`` names the result file (``results/<results>.json``) whose table fills the card."""
     source, target = Path(source), Path(destination) / name
     missing = [f for f in FILES if not (source / f).is_file()]
     if missing:
@@ -39,7 +40,7 @@ def ship_prior(source: str | Path, name: str, destination: str | Path = SHIPPED_
         shutil.copyfile(source / f, tmp)
         tmp.replace(target / f)
     card = (source / "README.md").read_text()
-    if "<!-- results:priors -->" not in card:
-        card = card.rstrip() + "\n" + RESULTS_BLOCK.format(name=name)
+    if f"<!-- results:{results} -->" not in card:
+        card = card.rstrip() + "\n" + RESULTS_BLOCK.format(name=name, results=results)
     atomic_write_text(target / "README.md", card)
     return target

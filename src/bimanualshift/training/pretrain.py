@@ -127,9 +127,18 @@ def _first_line(doc: str | None) -> str:
     return (doc or "").strip().split("\n")[0].rstrip(".")
 
 
+def _shown(path: str) -> str:
+    """A path as the card's reader types it: relative to the directory the run was started from, if under it."""
+    try:
+        return str(Path(path).resolve().relative_to(Path.cwd().resolve())) if Path(path).is_absolute() else path
+    except ValueError:
+        return path
+
+
 def model_card(cfg: PretrainConfig, kind: str, step: int, accuracy: float, train_episodes: int, val_episodes: int,
                wall_time_s: float, parameters: int, train_seeds: int = 0, val_seeds: int = 0) -> str:
     ds, net, opt = cfg.dataset, cfg.network, cfg.optim
+    data, validation_data = _shown(ds.data), _shown(ds.validation_data)
     overrides = f" --model '{json.dumps(net.model)}'" if net.model else ""
     names = resolve_task_names(ds.tasks)
     tasks = " ".join(names)
@@ -137,11 +146,11 @@ def model_card(cfg: PretrainConfig, kind: str, step: int, accuracy: float, train
                     f"{100 * ds.augment_translation_m:.0f} cm")
     reproduce = "\n".join([
         f"bimanualshift collect --task {tasks} --episodes {train_seeds or train_episodes // len(names)} "
-        f"--out {ds.data} --workers 2",
+        f"--out {data} --workers 2",
         f"bimanualshift collect --task {tasks} --episodes {val_seeds or val_episodes // len(names)} "
-        f"--split validation --out {ds.validation_data} --workers 2",
-        f"bimanualshift pretrain --prior {net.prior} --size {net.size} --tasks {tasks} --data {ds.data} "
-        f"--validation-data {ds.validation_data} --steps {opt.steps} --batch-size {opt.batch_size} "
+        f"--split validation --out {validation_data} --workers 2",
+        f"bimanualshift pretrain --prior {net.prior} --size {net.size} --tasks {tasks} --data {data} "
+        f"--validation-data {validation_data} --steps {opt.steps} --batch-size {opt.batch_size} "
         f"--lr {opt.lr} --optimizer {opt.optimizer} --seed {opt.seed} --checkpoint-every {opt.checkpoint_every}"
         f"{overrides}"
         + (f" --schedule {opt.schedule} --warmup-steps {opt.warmup_steps}" if opt.schedule != "constant" else "")
