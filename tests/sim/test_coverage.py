@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from bimanualshift.data.seeds import split_seeds
-from bimanualshift.sim.coverage import SKILL_PAIRS, arm_frame_goal_poses, coverage, covered
+from bimanualshift.sim.coverage import SKILL_PAIRS, arm_frame_goal_poses, coverage, covered, single_arm_tasks
 from bimanualshift.sim.layout import BIMANUAL_ARM_Y
 from bimanualshift.sim.task import task_groups, task_names
 
@@ -17,7 +17,7 @@ SINGLE_ARM_SEEDS = split_seeds("train", 600)  # where the pretraining demonstrat
 
 def test_every_pair_names_a_bimanual_task_and_a_single_arm_one() -> None:
     assert set(SKILL_PAIRS) == set(task_names(bimanual=True, robot="panda")) | set(task_groups()["realworld"])
-    singles = {s for pairs in SKILL_PAIRS.values() for s in pairs.values()}
+    singles = set().union(*(single_arm_tasks(task) for task in SKILL_PAIRS))
     assert singles <= set(task_names(bimanual=False))
 
 

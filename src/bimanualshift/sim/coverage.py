@@ -17,8 +17,9 @@ from bimanualshift.sim.env import ManipulationEnv
 from bimanualshift.sim.props.rope import rope_ends
 from bimanualshift.sim.props.vegetables import VEGETABLES
 
-# Bimanual task -> {kind of goal object: the single-arm task acting on the same kind}.
-SKILL_PAIRS: dict[str, dict[str, str]] = {
+# Bimanual task -> {kind of goal object: the single-arm task acting on the same kind, or one per arm where the two
+# arms do different things to it (one holds the toaster, the other presses its lever)}.
+SKILL_PAIRS: dict[str, dict[str, str | dict[str, str]]] = {
     "push_two_buttons": {"button": "push_button"},
     "lift_ball": {"ball": "push_ball_aside"},
     "pick_up_plate": {"plate": "pick_up_small_plate"},
@@ -29,7 +30,22 @@ SKILL_PAIRS: dict[str, dict[str, str]] = {
     # the paper's real-world tasks on the UR5e twin, against the twin's single-arm skills
     "vegetable_sorting": {"vegetable": "place_vegetable", "bin": "place_vegetable"},
     "block_threading": {"rod": "hold_rod", "block": "thread_block"},
+    "toaster_activation": {"toaster": {"left": "steady_toaster", "right": "press_lever"}},
+    "toasting_completion": {"toaster": {"left": "steady_toaster", "right": "insert_bread"}, "bread": "insert_bread"},
+    "serve_toast": {"toaster": {"left": "steady_toaster", "right": "insert_bread"}, "bread": "insert_bread",
+                    "plate": "place_toast"},
 }
+
+
+def single_arm_task(task: str, kind: str, arm: str) -> str:
+    """The single-arm task whose data should cover ``arm``'s goals of ``kind`` in ``task``."""
+    single = SKILL_PAIRS[task][kind]
+    return single if isinstance(single, str) else single[arm]
+
+
+def single_arm_tasks(task: str) -> set[str]:
+    return {s for single in SKILL_PAIRS[task].values() for s in ([single] if isinstance(single, str)
+                                                                  else single.values())}
 # Kinds whose turn about the vertical the cameras cannot see (round) are compared by position only.
 ROUND_KINDS = frozenset({"button", "plate", "ball", "rope_end"})
 # Goal classes compared as one kind: the vegetables a hand grasps the same way (down, across the long axis)
@@ -118,11 +134,12 @@ def coverage(task: str, seeds: list[int], single_arm_seeds: list[int]) -> list[C
     bimanual = arm_frame_goal_poses(task, seeds)
     references: dict[str, dict[str, dict[str, np.ndarray]]] = {}
     rows = []
-    for kind, single in SKILL_PAIRS[task].items():
-        if single not in references:
-            references[single] = arm_frame_goal_poses(single, single_arm_seeds)
-        reference = references[single][kind]["right"]
+    for kind in SKILL_PAIRS[task]:
         for arm, poses in sorted(bimanual[kind].items()):
+            single = single_arm_task(task, kind, arm)
+            if single not in references:
+                references[single] = arm_frame_goal_poses(single, single_arm_seeds)
+            reference = references[single][kind]["right"]
             inside = covered(poses, reference, kind not in ROUND_KINDS)
             gaps = np.linalg.norm(poses[:, None, :2] - reference[None, :, :2], axis=-1).min(axis=1)
             rows.append(Coverage(task, kind, arm, single, _ranges(poses), _ranges(reference),

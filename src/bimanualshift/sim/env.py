@@ -121,7 +121,8 @@ class ManipulationEnv(gym.Env):
         self.task.initialize_episode(self.sim, np.random.default_rng(seed))
         mujoco.mj_forward(self.model, self.data)
         if self.perturbations.swap_sides:
-            mirror_bodies(self.model, self.data, self._task_roots)
+            half_turned = tuple(self.sim.body_id(name) for name in self.task.mirrored_by_half_turn)
+            mirror_bodies(self.model, self.data, self._task_roots, half_turned)
         self.keyframe_index = 0
         self.gripper_open = {arm: 1.0 for arm in self.arm_names}
         options = options or {}

@@ -58,19 +58,36 @@ def _reflect_wxyz(q: np.ndarray) -> np.ndarray:
     return np.array([q[0], -q[1], q[2], -q[3]])
 
 
-def mirror_bodies(model: mujoco.MjModel, data: mujoco.MjData, roots: list[int]) -> None:
-    """Mirror the given root bodies (and everything hanging from them) across the x-z plane."""
+def _half_turned_wxyz(q: np.ndarray) -> np.ndarray:
+    """``q`` followed by half a turn about the body's own vertical axis."""
+    turned = Rotation.from_quat(np.roll(q, -1)) * Rotation.from_euler("z", np.pi)
+    return np.roll(turned.as_quat(), 1)
+
+
+def mirror_bodies(model: mujoco.MjModel, data: mujoco.MjData, roots: list[int], half_turned: tuple[int, ...] = ()
+                  ) -> None:
+    """Mirror the given root bodies (and everything hanging from them) across the x-z plane.
+
+    A rigid body can only be turned, not reflected: each keeps its own shape and is turned as its mirror image is.
+    That is the reflected rotation for a body symmetric across its own x-z plane, and the same plus half a turn for
+    the ``half_turned`` roots, symmetric across their own y-z plane instead (a toaster's handle and lever ends
+    change places in its mirror image)."""
     for body in range(1, model.nbody):
         if int(model.body_rootid[body]) not in roots:
             continue
+        turn = int(model.body_rootid[body]) in half_turned
         if model.body_parentid[body] == 0:
             model.body_pos[body, 1] *= -1
             model.body_quat[body] = _reflect_wxyz(model.body_quat[body])
+            if turn and model.body_jntnum[body] == 0:  # fixed to the table: its placement is its pose
+                model.body_quat[body] = _half_turned_wxyz(model.body_quat[body])
         for j in range(model.body_jntadr[body], model.body_jntadr[body] + model.body_jntnum[body]):
             adr, kind = model.jnt_qposadr[j], model.jnt_type[j]
             if kind == mujoco.mjtJoint.mjJNT_FREE:
                 data.qpos[adr + 1] *= -1
                 data.qpos[adr + 3 : adr + 7] = _reflect_wxyz(data.qpos[adr + 3 : adr + 7])
+                if turn:
+                    data.qpos[adr + 3 : adr + 7] = _half_turned_wxyz(data.qpos[adr + 3 : adr + 7])
             elif kind == mujoco.mjtJoint.mjJNT_BALL:
                 data.qpos[adr : adr + 4] = _reflect_wxyz(data.qpos[adr : adr + 4])
     mujoco.mj_forward(model, data)

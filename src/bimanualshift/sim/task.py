@@ -162,6 +162,9 @@ class Task(ABC):
     # (``--robot``); a spec not listed is refused, since its expert was never checked there.
     robot: ClassVar[str] = "panda"
     other_robots: ClassVar[tuple[str, ...]] = ()
+    # Root bodies whose mirror image (a left-right exchange) is the body turned half round, not reflected:
+    # those symmetric across their own y-z plane but not their x-z plane (``perturb_scene.mirror_bodies``).
+    mirrored_by_half_turn: ClassVar[tuple[str, ...]] = ()
 
     def __init__(self, perturbations: Perturbations | None = None) -> None:
         self.perturbations = perturbations or Perturbations()

@@ -11,20 +11,27 @@ from bimanualshift.sim.tasks.bimanual import (  # noqa: F401
 )
 from bimanualshift.sim.tasks.realworld import (  # noqa: F401
     block_threading,
+    serve_toast,
+    toaster_activation,
+    toasting_completion,
     vegetable_sorting,
 )
 from bimanualshift.sim.tasks.unimanual import (  # noqa: F401
     drag_dustpan,
     hold_dustpan,
     hold_rod,
+    insert_bread,
     open_oven_door,
     pick_cube,
     pick_up_small_plate,
+    place_toast,
     place_vegetable,
+    press_lever,
     pull_rope_end,
     push_ball_aside,
     push_button,
     slide_block,
+    steady_toaster,
     sweep_dirt,
     take_tray_out_of_open_oven,
     thread_block,
