@@ -56,6 +56,19 @@ def test_experts_writes_a_result_file(tmp_path) -> None:  # noqa: ANN001
         main(["experts", "--task", "nope", "--episodes", "1"])
 
 
+def test_experts_run_under_each_perturbation_asked_for(tmp_path) -> None:  # noqa: ANN001
+    import json
+
+    out = tmp_path / "experts.json"
+    main(["experts", "--task", "block_threading", "--episodes", "1", "--perturb", "none", "unseen_shapes",
+          "--out", str(out)])
+    rows = json.loads(out.read_text())["rows"]
+    assert [(r["task"], r["perturbation"], r["episodes"]) for r in rows] == [
+        ("block_threading", "none", 1), ("block_threading", "unseen_shapes", 1)]
+    with pytest.raises(SystemExit):
+        main(["experts", "--task", "block_threading", "--episodes", "1", "--perturb", "sunset"])
+
+
 def test_task_groups_resolve_to_registered_tasks() -> None:
     from bimanualshift.cli.common import resolve_tasks
     from bimanualshift.sim.task import task_names

@@ -57,6 +57,8 @@ class ExpertsArgs:
     workers: int = 1  # parallel worker processes
     out: str = ""  # write a result JSON here (e.g. results/experts.json)
     executor: Literal["local", "ray"] = "local"  # local worker processes, or Ray tasks on the cluster RAY_ADDRESS names
+    # perturbation presets to run under, one row per task and preset (e.g. lighting swap_sides; `none`: as trained)
+    perturb: list[str] = field(default_factory=lambda: ["none"])
 
 
 def experts(args: ExpertsArgs) -> None:
@@ -64,13 +66,21 @@ def experts(args: ExpertsArgs) -> None:
     from bimanualshift.evaluation.experts import expert_rows
     from bimanualshift.evaluation.report import write_result
     from bimanualshift.sim.expert_check import check_experts
+    from bimanualshift.sim.perturbations import preset
 
     names = resolve_tasks(args.task)
     started = time.time()
     seeds = split_seeds("test", args.episodes)
-    rows = expert_rows(names, check_experts(names, seeds, workers=args.workers, executor=args.executor))
+    for name in args.perturb:
+        preset(name)  # an unknown preset fails before any episode runs
+    rows = []
+    for name in args.perturb:
+        episodes = check_experts(names, seeds, workers=args.workers, executor=args.executor, perturbation=name)
+        rows += [{**row, "perturbation": name} if args.perturb != ["none"] else row
+                 for row in expert_rows(names, episodes)]
     for row in rows:
-        print(f"{row['task']:24s} {100 * row['success']:5.1f} %  "
+        label = f"{row['task']} ({row['perturbation']})" if "perturbation" in row else row["task"]
+        print(f"{label:36s} {100 * row['success']:5.1f} %  "
               f"({round(row['success'] * row['episodes'])}/{row['episodes']})  "
               f"{row['mean_wall_time_s']:.1f} s/episode  {row['mean_keyframes']:.1f} keyframes")
     if args.out:

@@ -28,13 +28,14 @@ def run_expert(env: ManipulationEnv, seed: int) -> ExpertEpisode:
     return ExpertEpisode(env.task.name, seed, env.success(), len(keyframes), time.perf_counter() - started)
 
 
-def _run_job(job: tuple[str, int]) -> ExpertEpisode:
-    task, seed = job
-    return run_expert(cached_env(task, image_size=64), seed)
+def _run_job(job: tuple[str, str, int]) -> ExpertEpisode:
+    task, perturbation, seed = job
+    return run_expert(cached_env(task, perturbation, image_size=64), seed)
 
 
-def check_experts(tasks: list[str], seeds: list[int], workers: int = 1, executor: str = "local"
-                  ) -> list[ExpertEpisode]:
-    jobs = [(task, seed) for task in tasks for seed in seeds]
+def check_experts(tasks: list[str], seeds: list[int], workers: int = 1, executor: str = "local",
+                  perturbation: str = "none") -> list[ExpertEpisode]:
+    """Every task's expert on every seed, under a perturbation preset (``sim.perturbations.PRESETS``)."""
+    jobs = [(task, perturbation, seed) for task in tasks for seed in seeds]
     results = run_jobs(_run_job, jobs, workers, desc="expert episodes", executor=executor)
     return sorted(results, key=lambda e: (e.task, e.seed))

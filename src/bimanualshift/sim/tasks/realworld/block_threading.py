@@ -126,7 +126,8 @@ class BlockThreading(ThreadingTask):
     bimanual = True
 
     def scene_xml(self) -> str:
-        return rod_xml("rod") + block_xml("block")
+        unseen = self.perturbations.unseen_shapes
+        return rod_xml("rod", flat=unseen) + block_xml("block", wide=unseen)
 
     def initialize_episode(self, sim: SimHandle, rng: np.random.Generator) -> None:
         rod = np.array([rng.uniform(*ROD_REGION[0]), rng.uniform(*ROD_REGION[1])])

@@ -23,7 +23,7 @@ class HoldRod(Task):
     robot = "ur5e"
 
     def scene_xml(self) -> str:
-        return rod_xml("rod")
+        return rod_xml("rod", flat=self.perturbations.unseen_shapes)
 
     def initialize_episode(self, sim: SimHandle, rng: np.random.Generator) -> None:
         side = 1.0 if rng.random() < 0.5 else -1.0

@@ -33,7 +33,7 @@ class ThreadBlock(ThreadingTask):
     bimanual = False
 
     def scene_xml(self) -> str:
-        return rod_xml("rod", mounted=True) + block_xml("block")
+        return rod_xml("rod", mounted=True) + block_xml("block", wide=self.perturbations.unseen_shapes)
 
     def initialize_episode(self, sim: SimHandle, rng: np.random.Generator) -> None:
         side = 1.0 if rng.random() < 0.5 else -1.0
