@@ -46,3 +46,14 @@ def test_split_prompt_separates_a_colour_attribute() -> None:
     assert split_prompt("navy button") == ("navy", "button")
     assert split_prompt("button") == (None, "button")
     assert split_prompt("robotic arm") == (None, "robotic arm")
+
+
+@pytest.mark.parametrize(("instruction", "nouns"), [
+    ("toast the bread and serve it on the plate", ["bread"]),  # a pronoun names no new goal
+    ("press the toaster's lever down", ["toaster"]),  # a possessive's part names its whole
+    ("hold the toaster and press its lever down", ["toaster"]),  # "its lever": the toaster, named before
+    ("hold the toaster steady by its handle", ["toaster"]),  # "steady" is a complement, not a noun
+    ("hold the toaster and put the bread in its slot", ["toaster", "bread"]),
+])
+def test_pronouns_possessives_and_complements(instruction: str, nouns: list[str]) -> None:
+    assert extract_goal_nouns(instruction) == nouns

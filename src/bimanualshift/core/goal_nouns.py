@@ -2,7 +2,8 @@
 
 The rule set, in order:
 
-1. Lower-case, drop punctuation, split into words.
+1. Lower-case, drop possessive 's ("the toaster's lever" -> "the toaster lever") and punctuation, split into
+   words.
 2. The instruction is split into clauses where "and" / "then" is followed by a verb ("open the oven and take
    out the tray" -> two clauses); every clause contributes.
 3. A clause's direct object is the words after its leading verb (and the verb's particle: "pick *up*",
@@ -16,7 +17,9 @@ The rule set, in order:
    two of them named), only the named ones are goals. A part with a colour but no noun of its own shares
    the next part's noun ("the blue and the navy buttons" -> "blue button", "navy button").
 5. A part noun names its whole: "both ends *of the rope*" -> rope, "the oven door" -> oven.
-6. Head nouns are singularised ("buttons" -> "button", "brushes" -> "brush"; uncountable words stay) and
+6. A pronoun ("serve *it*") refers to a goal already named and adds none; so does a part noun after a
+   possessive pronoun ("press *its lever*": the whole named before).
+7. Head nouns are singularised ("buttons" -> "button", "brushes" -> "brush"; uncountable words stay) and
    de-duplicated in order.
 
 When a task knows better (the goal of "open the oven door" is the oven, a tray task also needs the oven to
@@ -38,12 +41,15 @@ PREPOSITIONS = {"of", "into", "to", "onto", "from", "in", "on", "with", "towards
                 "inside", "under", "above", "below", "beside", "next", "using", "by", "until", "so"}
 COORDINATORS = {"and", "or", "then"}
 COLOURS = {*TRAIN_COLOURS, *UNSEEN_COLOURS}
-COMPLEMENTS = {"straight", "flat", "level", "tight", "closed", "shut", "upright", "together"}
+COMPLEMENTS = {"straight", "flat", "level", "tight", "closed", "shut", "upright", "together", "steady", "still"}
+PRONOUNS = {"it", "them", "itself", "themselves", "one", "ones"}
+POSSESSIVE_PRONOUNS = {"its", "their"}
 VERBS = {"push", "press", "lift", "pick", "take", "put", "place", "open", "close", "sweep", "slide", "pull",
          "straighten", "grasp", "grab", "hold", "drag", "remove", "get", "move", "stack", "brush", "lay", "stretch",
-         "turn", "rotate", "insert", "hand", "give", "wipe", "fold", "pour", "carry", "raise", "set", "drop"}
+         "turn", "rotate", "insert", "hand", "give", "wipe", "fold", "pour", "carry", "raise", "set", "drop", "serve",
+         "route", "thread", "steady", "arrange"}
 PART_NOUNS = {"end", "ends", "side", "sides", "edge", "edges", "handle", "handles", "door", "lid", "top", "corner",
-              "rim", "tab", "knob"}
+              "rim", "tab", "knob", "lever", "slot"}
 UNCOUNTABLE = {"dirt", "rope", "dust", "water", "sand", "cloth", "glass", "paper"}
 IRREGULAR = {"knives": "knife", "leaves": "leaf", "shelves": "shelf", "people": "person", "feet": "foot"}
 
@@ -64,7 +70,7 @@ def singular(word: str) -> str:
 
 def extract_goal_nouns(instruction: str) -> list[str]:
     """The head nouns of the instruction's direct objects (see the module docstring for the rules)."""
-    words = re.findall(r"[a-z][a-z\-]*", instruction.lower())
+    words = re.findall(r"[a-z][a-z\-]*", re.sub(r"'s\b", "", instruction.lower()))
     if not words:
         raise ValueError(f"instruction {instruction!r} has no words to take a goal noun from")
     clauses: list[list[str]] = [[]]
@@ -101,7 +107,9 @@ def _object_nouns(clause: list[str]) -> list[str]:
     for word in [*obj, "and"]:
         if word in COORDINATORS:
             colours = [w for w in part if w in COLOURS]
-            content = [w for w in part if w not in DETERMINERS and w not in MODIFIERS]
+            content = [w for w in part if w not in DETERMINERS and w not in MODIFIERS and w not in PRONOUNS]
+            if len(content) == 1 and content[0] in PART_NOUNS and POSSESSIVE_PRONOUNS & set(part):
+                content = []  # "its lever": a part of a goal already named
             if len(content) >= 2 and content[-1] in PART_NOUNS:  # "the oven door": the whole is the goal
                 content = content[:-1]
             if content or colours:

@@ -56,7 +56,7 @@ class PlaceToast(ToasterTask):
         self.episode["latched"] = True  # it has toasted
 
     def instruction(self) -> str:
-        return "put the toast on the plate"
+        return "put the toasted bread on the plate"
 
     def goal_nouns(self) -> list[str]:
         return ["bread", "plate"]
