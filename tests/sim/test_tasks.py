@@ -34,6 +34,8 @@ def test_registry_has_bimanual_and_single_arm_tasks() -> None:
     native = {t for t in task_names() if TASKS[t].robot == "ur5e" and "@" not in t}  # built for the twin
     assert set(task_names(robot="ur5e")) == variants | native and {"vegetable_sorting", "block_threading"} <= native
     assert TASKS["push_button@ur5e"].robot == "ur5e" and TASKS["push_button@ur5e"].name == "push_button@ur5e"
+    # the added-skill split is the Panda suite's: on the twin's suite a variant counts in the one mean
+    assert TASKS["hold_dustpan"].added_skill and not TASKS["hold_dustpan@ur5e"].added_skill
     with pytest.raises(ValueError, match="registered twice"):
         register_task("push_button")(TASKS["push_button"])
 
