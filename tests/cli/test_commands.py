@@ -71,11 +71,13 @@ def test_experts_run_under_each_perturbation_asked_for(tmp_path) -> None:  # noq
 
 def test_task_groups_resolve_to_registered_tasks() -> None:
     from bimanualshift.cli.common import resolve_tasks
-    from bimanualshift.sim.task import task_names
+    from bimanualshift.sim.task import TASKS, task_names
 
     assert resolve_tasks(["bimanual"]) == task_names(bimanual=True, robot="panda")
     assert resolve_tasks(["unimanual", "lift_ball"]) == [*task_names(bimanual=False, robot="panda"), "lift_ball"]
-    assert resolve_tasks(["realworld"]) == ["block_threading", "vegetable_sorting"]
+    realworld = resolve_tasks(["realworld"])  # the paper's real-world tasks: bimanual, built for the twin
+    assert {"block_threading", "vegetable_sorting", "toaster_activation", "serve_toast"} <= set(realworld)
+    assert all(TASKS[t].bimanual and TASKS[t].robot == "ur5e" for t in realworld)
     assert "push_button@ur5e" in resolve_tasks(["unimanual_ur5e"])
     with pytest.raises(SystemExit, match="one of the groups all, bimanual, unimanual, .*realworld"):
         main(["experts", "--task", "bimanul", "--episodes", "1"])
