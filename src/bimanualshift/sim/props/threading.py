@@ -19,28 +19,22 @@ def rod_xml(name: str = "rod", mounted: bool = False, flat: bool = False) -> str
     """The rod lies on the table along its y axis; ``mounted``, it is fixed in the air (placed per episode), on a
     post under its far (+y) end. ``flat`` (the unseen shape): a flat bar, 4 x 2 cm, that still fits the hole."""
     w, half = ROD_HALF_WIDTH, ROD_HALF_LENGTH
-    if flat:
-        return f"""
-<body name="{name}" pos="0 0 {TABLE_TOP_Z + FLAT_ROD[1]}">
-  <freejoint name="{name}_joint"/>
-  <inertial pos="0 0 0" mass="0.03" diaginertia="1e-4 5e-6 1e-4"/>
-  <geom name="{name}_geom" type="box" size="{FLAT_ROD[0]} {half} {FLAT_ROD[1]}" rgba="0.6 0.4 0.2 1" group="1"
-        friction="0.1 0.005 0.0001" condim="4" solref="0.01 1"/>
-</body>"""
+    across, up = FLAT_ROD if flat else (w, w)
+    rod = (f'<geom name="{name}_geom" type="box" size="{across} {half} {up}" rgba="0.6 0.4 0.2 1" group="1"\n'
+           '        friction="0.1 0.005 0.0001" condim="4" solref="0.01 1"/>')
     if mounted:
+        post = (f'<geom name="{name}_post" type="box" pos="0 {half - w} -0.075" size="{w} {w} 0.075" '
+                'rgba="0.3 0.3 0.3 1" group="1"/>')
         return f"""
 <body name="{name}" pos="0 0 {TABLE_TOP_Z + 0.15}">
-  <geom name="{name}_geom" type="box" size="{w} {half} {w}" rgba="0.6 0.4 0.2 1" group="1"
-        friction="0.1 0.005 0.0001" condim="4" solref="0.01 1"/>
-  <geom name="{name}_post" type="box" pos="0 {half - w} -0.075" size="{w} {w} 0.075" rgba="0.3 0.3 0.3 1"
-        group="1"/>
+  {rod}
+  {post}
 </body>"""
     return f"""
-<body name="{name}" pos="0 0 {TABLE_TOP_Z + w}">
+<body name="{name}" pos="0 0 {TABLE_TOP_Z + up}">
   <freejoint name="{name}_joint"/>
   <inertial pos="0 0 0" mass="0.03" diaginertia="1e-4 5e-6 1e-4"/>
-  <geom name="{name}_geom" type="box" size="{w} {half} {w}" rgba="0.6 0.4 0.2 1" group="1"
-        friction="0.1 0.005 0.0001" condim="4" solref="0.01 1"/>
+  {rod}
 </body>"""
 
 

@@ -81,6 +81,13 @@ class ToasterTask(Task):
         self.episode["latched"] = False
         self.episode["max_tilt_deg"] = 0.0
 
+    def paint_episode(self, sim: SimHandle, rng: np.random.Generator) -> None:
+        """One colour for the toaster; the episode's state starts here."""
+        colour = self.pick_colours(rng, 1)[0]
+        self.paint_toaster(sim, colour)
+        self.episode = {"colour": colour}
+        self.record_start(sim)
+
     def toaster_still(self, sim: SimHandle) -> bool:
         """The toaster stands where it stood and never rocked by more than ``STEADY_WITHIN_DEG``."""
         moved = np.linalg.norm(sim.body_pos("toaster")[:2] - np.asarray(self.episode["toaster_start"]))

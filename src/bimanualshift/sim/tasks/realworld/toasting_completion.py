@@ -38,10 +38,7 @@ class ToastingCompletion(ToasterTask):
     def initialize_episode(self, sim: SimHandle, rng: np.random.Generator) -> None:
         place_toaster(sim, sample_xy(rng, TOASTER_REGION), rng.uniform(-YAW, YAW))
         place_bread_in_rack(sim, sample_xy(rng, RACK_REGION), rng.uniform(-YAW, YAW))
-        colour = self.pick_colours(rng, 1)[0]
-        self.paint_toaster(sim, colour)
-        self.episode = {"colour": colour}
-        self.record_start(sim)
+        self.paint_episode(sim, rng)
 
     def instruction(self) -> str:
         return "hold the toaster and put the bread in its slot"

@@ -43,10 +43,7 @@ class InsertBread(ToasterTask):
         xy = sample_xy(rng, (TOASTER_REGION[0], WORKER_TOASTER_Y), side)
         place_toaster(sim, xy, facing_yaw(rng, towards_minus_y=side > 0), mounted=True)
         place_bread_in_rack(sim, sample_xy(rng, (RACK_REGION[0], WORKER_RACK_Y), side), rng.uniform(-YAW, YAW))
-        colour = self.pick_colours(rng, 1)[0]
-        self.paint_toaster(sim, colour)
-        self.episode = {"colour": colour}
-        self.record_start(sim)
+        self.paint_episode(sim, rng)
 
     def instruction(self) -> str:
         return "put the bread in the toaster's slot"

@@ -31,10 +31,7 @@ class PressLever(ToasterTask):
         side = skill_side(rng)
         xy = sample_xy(rng, (TOASTER_REGION[0], WORKER_TOASTER_Y), side)
         place_toaster(sim, xy, facing_yaw(rng, towards_minus_y=side > 0), mounted=True)
-        colour = self.pick_colours(rng, 1)[0]
-        self.paint_toaster(sim, colour)
-        self.episode = {"colour": colour}
-        self.record_start(sim)
+        self.paint_episode(sim, rng)
 
     def instruction(self) -> str:
         return "press the toaster's lever down"

@@ -30,10 +30,7 @@ class SteadyToaster(ToasterTask):
         side = skill_side(rng)
         xy = sample_xy(rng, (TOASTER_REGION[0], HOLDER_TOASTER_Y), side)
         place_toaster(sim, xy, facing_yaw(rng, towards_minus_y=side < 0))  # the handle (+y end) towards the arm
-        colour = self.pick_colours(rng, 1)[0]
-        self.paint_toaster(sim, colour)
-        self.episode = {"colour": colour}
-        self.record_start(sim)
+        self.paint_episode(sim, rng)
 
     def instruction(self) -> str:
         return "hold the toaster steady by its handle"
