@@ -20,16 +20,26 @@ from bimanualshift.rollout.loop import EpisodeRecord
 from bimanualshift.utils.io import atomic_write_json
 
 
-def git_commit() -> str:
+def git_commit(since: float | None = None, cwd: Path | None = None) -> str:
     """The commit the code runs from (``-dirty`` when code or configuration changed), or, for an installed
-    package outside a git checkout, ``version-<package version>``."""
+    package outside a git checkout, ``version-<package version>``.
+
+    ``since`` (a start time): the commit the checkout stood at then, the newest on HEAD's history made by that
+    time. A long run outlives the commits made while it runs; its code is the one it started from."""
+    cwd = cwd or Path(__file__).resolve().parent
     try:
-        out = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True, check=True,
-                             cwd=Path(__file__).resolve().parent)
+        head = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True, check=True,
+                              cwd=cwd).stdout.strip()
+        if since is not None:
+            moment = datetime.fromtimestamp(since, timezone.utc).isoformat(timespec="seconds")
+            then = subprocess.run(["git", "rev-list", "-1", f"--before={moment}", "HEAD"], capture_output=True,
+                                  text=True, check=True, cwd=cwd).stdout.strip()
+            if then and then != head:
+                return then  # the checkout has moved on since; whether it was dirty then is not known
         # Changed code or configuration marks the commit dirty; result files a run rewrites do not.
         dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no", "--", ":/", ":!/results"],
-                               capture_output=True, text=True, cwd=Path(__file__).resolve().parent).stdout.strip()
-        return out.stdout.strip() + ("-dirty" if dirty else "")
+                               capture_output=True, text=True, cwd=cwd).stdout.strip()
+        return head + ("-dirty" if dirty else "")
     except (OSError, subprocess.CalledProcessError):
         return f"version-{__version__}"
 
@@ -85,7 +95,7 @@ def threads() -> dict[str, Any]:
 def write_result(path: str | Path, command: str, seeds: dict[str, list[int]], started: float,
                  rows: list[dict[str, Any]], notes: str = "", **extra: Any) -> Path:
     atomic_write_json(path, {
-        "command": command, "commit": git_commit(),
+        "command": command, "commit": git_commit(since=started),
         "created": datetime.now(timezone.utc).isoformat(timespec="seconds"), "machine": machine(),
         "seeds": seeds, "threads": threads(), "wall_time_s": round(time.time() - started, 1), "rows": rows,
         "notes": notes, **extra,
