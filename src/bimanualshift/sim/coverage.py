@@ -9,6 +9,7 @@ arm acts on comes from the task (``Task.arm_goals``), and every pose from the ta
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -130,16 +131,19 @@ def _ranges(poses: np.ndarray) -> list[list[float]]:
     return [[round(float(poses[:, i].min()), 3), round(float(poses[:, i].max()), 3)] for i in range(3)]
 
 
+@functools.lru_cache(maxsize=32)
+def _single_arm_poses(task: str, seeds: tuple[int, ...]) -> dict[str, dict[str, np.ndarray]]:
+    """A single-arm task's goal poses, computed once per process: several bimanual tasks share one skill."""
+    return arm_frame_goal_poses(task, list(seeds))
+
+
 def coverage(task: str, seeds: list[int], single_arm_seeds: list[int]) -> list[Coverage]:
     bimanual = arm_frame_goal_poses(task, seeds)
-    references: dict[str, dict[str, dict[str, np.ndarray]]] = {}
     rows = []
     for kind in SKILL_PAIRS[task]:
         for arm, poses in sorted(bimanual[kind].items()):
             single = single_arm_task(task, kind, arm)
-            if single not in references:
-                references[single] = arm_frame_goal_poses(single, single_arm_seeds)
-            reference = references[single][kind]["right"]
+            reference = _single_arm_poses(single, tuple(single_arm_seeds))[kind]["right"]
             inside = covered(poses, reference, kind not in ROUND_KINDS)
             gaps = np.linalg.norm(poses[:, None, :2] - reference[None, :, :2], axis=-1).min(axis=1)
             rows.append(Coverage(task, kind, arm, single, _ranges(poses), _ranges(reference),
