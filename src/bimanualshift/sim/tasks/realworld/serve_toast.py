@@ -68,12 +68,14 @@ class ServeToast(ToasterTask):
     def evaluate_stages(self, sim: SimHandle) -> list[bool]:
         inserted = bread_in_slot(sim) and not sim.touching_robot("bread")
         lifted = sim.body_pos("bread")[2] - BREAD[2] > TABLE_TOP_Z + HEIGHT + 0.01 and sim.pinched("bread")
-        placed = toast_on_plate(sim) and self.toaster_still(sim)
-        return [bool(inserted), bool(self.episode.get("latched")), bool(lifted), placed]
+        return [bool(inserted), bool(self.episode.get("latched")), bool(lifted), self.placed(sim)]
+
+    def placed(self, sim: SimHandle) -> bool:
+        return toast_on_plate(sim) and self.toaster_still(sim)
 
     def evaluate_success(self, sim: SimHandle) -> bool:
         # the first three stages reached in order earlier (latched by update_stages), the toast placed now
-        return int(self.episode.get("stages_done", 0)) >= 3 and self.evaluate_stages(sim)[3]
+        return int(self.episode.get("stages_done", 0)) >= 3 and self.placed(sim)
 
     def arm_goals(self, sim: SimHandle) -> dict[str, list[str]]:
         holder, worker = roles(sim)

@@ -56,7 +56,8 @@ class ToasterTask(Task):
 
     def on_control_step(self, sim: SimHandle) -> None:
         # where the toaster stood: taken at the first step, after any mirrored layout has moved it
-        self.episode.setdefault("toaster_start", [float(v) for v in sim.body_pos("toaster")[:2]])
+        if "toaster_start" not in self.episode:
+            self.episode["toaster_start"] = [float(v) for v in sim.body_pos("toaster")[:2]]
         was = bool(self.episode.get("latched", False))
         latched = hold_latch(sim, was)
         if latched and not was and self.has_bread:
