@@ -232,6 +232,11 @@ register_method(_residual_method(
     "best-scoring instruction per arm (translation and rotation; --prior-instruction per_arm; compare with "
     "no_refinement on validation seeds)", refine=False, retrieval=True, prior_instruction="per_arm"))
 register_method(_residual_method(
+    "explicit_roles", "variant: the full method before refinement whose keyframe slots belong to (role, arm) pairs: "
+    "the arm that moves first in a demo leads, and a classifier fitted on the demos decides which arm leads from "
+    "what the arms see at an episode's first keyframe (--roles true; compare with no_refinement on validation "
+    "seeds)", refine=False, retrieval=True, roles=True))
+register_method(_residual_method(
     "no_projection", "ablation: the prior sees the global scene", retrieval=True, use_projection=False,
     role="ablation"))
 register_method(_frozen_prior_method(

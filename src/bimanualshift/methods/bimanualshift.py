@@ -17,6 +17,7 @@ from bimanualshift.memory.bank import MemoryBank, Retrieval
 from bimanualshift.memory.reference import ProgressAlignment, episode_key, reference_vector
 from bimanualshift.methods.instruction_chooser import InstructionChooser
 from bimanualshift.methods.prior_step import ArmStep, FrozenPriorStep, goal_switches, world_action
+from bimanualshift.methods.role_assigner import RoleAssigner, role_features
 from bimanualshift.priors.base import UnimanualPrior
 from bimanualshift.residual.checkpoint import (
     load_residual_checkpoint,
@@ -32,7 +33,7 @@ class BimanualShift:
     name = "bimanualshift"
 
     def __init__(self, prior_step: FrozenPriorStep, residual: ResidualPolicy, memory: MemoryBank | None = None,
-                 text_encoder: TextEncoder | None = None) -> None:
+                 text_encoder: TextEncoder | None = None, role_assigner: RoleAssigner | None = None) -> None:
         if (memory is not None) != (residual.config.reference_dim > 0):
             raise ValueError("a residual trained with retrieval needs its memory bank, and one trained without "
                              "retrieval takes none")
@@ -42,6 +43,11 @@ class BimanualShift:
             raise ValueError(f"the residual reads {residual.config.text_dim}-wide instruction embeddings, the text "
                              f"encoder gives {self.text_encoder.dim}: load it with the encoder it was trained with")
         self.residual = residual.eval()
+        if residual.config.role_phase and role_assigner is None:
+            raise ValueError("a residual trained with --roles true needs its role assigner (the checkpoint's "
+                             "config.json 'role_assigner')")
+        self.role_assigner = role_assigner if residual.config.role_phase else None
+        self._roles: dict[str, int] = {}  # per arm, its role in this episode (decided at the first keyframe)
         self.memory = memory.freeze() if memory is not None else None
         self.retrieval: Retrieval | None = None
         self._retrieved = False
@@ -57,6 +63,7 @@ class BimanualShift:
         self.retrieval, self._retrieved, self._key = None, False, None
         self._last_action, self._nearest_similarity, self._log = {}, None, []
         self.alignment, self._steps, self._start_goal = None, {}, {}
+        self._roles = {}
 
     def _retrieve(self, steps: dict, text: torch.Tensor, arms: list[str]) -> None:
         """Once per episode, on its first observation: the most similar stored execution, if confident."""
@@ -91,6 +98,10 @@ class BimanualShift:
         text = torch.as_tensor(self.text_encoder.encode([obs.instruction]))
         arms = obs.scene.arm_names
         self._retrieve(steps, text, arms)
+        if self.role_assigner is not None and not self._roles:  # once per episode, from its first observation
+            features = np.concatenate([role_features(steps[a].goal, steps[a].proprio, steps[a].other_proprio, [i])
+                                       for i, a in enumerate(arms)])
+            self._roles = dict(zip(arms, (int(r) for r in self.role_assigner.assign(features)), strict=True))
         decisions = []
         for i, arm in enumerate(arms):
             s = steps[arm]
@@ -106,12 +117,16 @@ class BimanualShift:
                 self.residual.config, s.prior.features, torch.as_tensor(s.proprio)[None],
                 torch.as_tensor(s.other_proprio)[None], text, s.prior.base_action(), torch.tensor([i]),
                 torch.tensor([obs.keyframe_index]), reference, goal, s.prior.proposal_features, start_goal,
+                torch.tensor([self._roles[arm]]) if self._roles else None,
             )
             out = self.residual(inputs)
             action, held = self.final_action(arm, s, out)
             self._last_action[arm] = action
             decisions.append(ArmDecision(arm, s, inputs[0], action, held))
         self._log = [decision_log(d) for d in decisions]
+        for entry in self._log:
+            if self._roles:
+                entry["role"] = self._roles[entry["arm"]]
         return decisions
 
     def final_action(self, arm: str, step: ArmStep, out: dict[str, torch.Tensor]) -> tuple[np.ndarray, bool]:
@@ -217,4 +232,5 @@ def load_bimanualshift(directory: str | Path, text_encoder: TextEncoder | None =
                              prior_instruction=cfg.get("prior_instruction", ""),
                              instruction_chooser=(InstructionChooser.from_dict(cfg["instruction_chooser"])
                                                   if cfg.get("instruction_chooser") else None))
-    return BimanualShift(prior_step, residual, memory, residual_encoder)
+    assigner = RoleAssigner.from_dict(cfg["role_assigner"]) if cfg.get("role_assigner") else None
+    return BimanualShift(prior_step, residual, memory, residual_encoder, assigner)

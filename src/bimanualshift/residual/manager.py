@@ -73,6 +73,11 @@ class ResidualConfig:
     # "slot_twin"'s mean grasps, one quaternion per (arm, keyframe slot) of the phase one-hot, flattened (arm-major);
     # taken from the training demos, kept so that refinement's corrections turn towards the same twins.
     twin_references: tuple[float, ...] = ()
+    # The phase one-hot's blocks are (role, arm) pairs instead of arms: which part of a bimanual task each arm plays
+    # (role 0 leads: it moves first) changes with the scene in tasks whose layout decides it (take tray: the arm on
+    # the tray's side takes it), and one block per arm name would average the two roles' keyframe targets.
+    # ``methods/role_assigner.py`` decides the roles at an episode's first keyframe; the demos' give the labels.
+    role_phase: bool = False
 
     def __post_init__(self) -> None:
         if self.quaternion_sign not in QUATERNION_SIGNS:
@@ -82,14 +87,19 @@ class ResidualConfig:
         if self.rotation_target == "slot_twin" and not self.phase_dim:
             raise ValueError("rotation_target 'slot_twin' picks each grasp's twin per keyframe slot: it needs the "
                              "phase one-hot (--phase-slots > 0)")
-        if self.twin_references and len(self.twin_references) != 4 * self.phase_dim:
+        if self.twin_references and len(self.twin_references) != 4 * self.num_arms * self.slots_per_arm:
             raise ValueError(f"twin_references holds {len(self.twin_references)} numbers; a quaternion per (arm, "
-                             f"keyframe slot) of the phase one-hot is {4 * self.phase_dim}")
+                             f"keyframe slot) of the phase one-hot is {4 * self.num_arms * self.slots_per_arm}")
+
+    @property
+    def phase_blocks(self) -> int:
+        """Blocks of keyframe slots in the phase one-hot: one per arm, or per (role, arm) with ``role_phase``."""
+        return self.num_arms * (NUM_ROLES if self.role_phase else 1)
 
     @property
     def slots_per_arm(self) -> int:
-        """Keyframe slots each arm has in the phase one-hot (0 without one)."""
-        return self.phase_dim // self.num_arms
+        """Keyframe slots each block of the phase one-hot has (0 without one)."""
+        return self.phase_dim // self.phase_blocks
 
     def phase_slot(self, keyframe: np.ndarray | torch.Tensor) -> np.ndarray | torch.Tensor:
         """Each keyframe index's slot in its arm's block: keyframes past the end share the last slot."""
@@ -132,6 +142,7 @@ class ResidualConfig:
         return out
 
 
+NUM_ROLES = 2  # 0: the arm that leads (moves first), 1: the arm that follows (methods/role_assigner.py)
 HOLD_INIT_LOGIT = -4.0
 GRIPPER_PROB_FLOOR = 1e-4  # the prior's open probability is clamped here before its logit is taken
 INPUT_STD_FLOOR = 1e-2  # below this spread a column is treated as constant (e.g. one instruction's embedding)
@@ -243,7 +254,7 @@ def arm_and_slot(config: ResidualConfig, inputs: torch.Tensor) -> tuple[torch.Te
     """(N,) each raw Manager input row's arm index and (N,) its keyframe slot, read from its (arm, keyframe) phase
     one-hot (arm-major: one block of slots per arm)."""
     phase = inputs[:, config.layout()["phase"]].argmax(-1)
-    return phase // config.slots_per_arm, phase % config.slots_per_arm
+    return (phase // config.slots_per_arm) % config.num_arms, phase % config.slots_per_arm
 
 
 def action_lattice(config: ResidualConfig) -> torch.Tensor:
@@ -276,11 +287,11 @@ def manager_input_rows(config: ResidualConfig, features: torch.Tensor, proprio: 
                        other_proprio: torch.Tensor, text: torch.Tensor, base_action: torch.Tensor,
                        arm_index: torch.Tensor, keyframe: torch.Tensor, reference: torch.Tensor | None = None,
                        goal: torch.Tensor | None = None, proposal: torch.Tensor | None = None,
-                       start_goal: torch.Tensor | None = None) -> torch.Tensor:
+                       start_goal: torch.Tensor | None = None, role: torch.Tensor | None = None) -> torch.Tensor:
     """(N, width) Manager input rows exactly as ``config`` reads them (``config.layout()``): training, refinement
     and inference all build their rows here. The retrieved reference, the goal geometry, the prior's proposal
-    features and the episode's first goal geometry must be given when the config reads them; the (arm, keyframe)
-    phase one-hot is derived from ``keyframe``."""
+    features, the episode's first goal geometry and (with ``role_phase``) each row's role must be given when the
+    config reads them; the (arm, keyframe) phase one-hot is derived from ``keyframe``."""
     if config.goal_dim and goal is not None and goal.shape[-1] > config.goal_dim:
         goal = goal[..., :config.goal_dim]  # a residual trained before the extremities reads the box alone
     if config.start_goal_dim and start_goal is not None and start_goal.shape[-1] > config.start_goal_dim:
@@ -297,7 +308,10 @@ def manager_input_rows(config: ResidualConfig, features: torch.Tensor, proprio: 
         proprio, other_proprio, base_action = (_quaternion_toward_gripper_down(x)
                                                for x in (proprio, other_proprio, base_action))
         reference = None if reference is None else _quaternion_toward_gripper_down(reference)
-    phase = phase_one_hot(config, keyframe, arm_index) if config.phase_dim else None
+    if config.role_phase and config.phase_dim and role is None:
+        raise ValueError("this residual's phase one-hot is per (role, arm): pass each row's role "
+                         "(methods/role_assigner.py) to build the Manager's input")
+    phase = phase_one_hot(config, keyframe, arm_index, role) if config.phase_dim else None
     return manager_inputs(features, proprio, other_proprio, text, base_action, arm_index, config.num_arms,
                           reference if config.reference_dim else None, goal if config.goal_dim else None, phase,
                           proposal if config.proposal_dim else None,
@@ -309,11 +323,16 @@ def _quaternion_toward_gripper_down(rows: torch.Tensor) -> torch.Tensor:
     return torch.cat([rows[..., :3], quat_toward(rows[..., 3:7]), rows[..., 7:]], dim=-1)
 
 
-def phase_one_hot(config: ResidualConfig, keyframe: torch.Tensor, arm_index: torch.Tensor) -> torch.Tensor:
+def phase_one_hot(config: ResidualConfig, keyframe: torch.Tensor, arm_index: torch.Tensor,
+                  role: torch.Tensor | None = None) -> torch.Tensor:
     """(N, phase_dim) the (arm, keyframe index) pair as one one-hot over ``num_arms`` blocks of
-    ``slots_per_arm`` slots: each arm's keyframes get their own slots (``phase_slot``)."""
+    ``slots_per_arm`` slots: each arm's keyframes get their own slots (``phase_slot``); with ``role_phase`` the
+    blocks are (role, arm) pairs, role-major."""
     slots, width = config.slots_per_arm, config.phase_dim
-    if slots < 1 or slots * config.num_arms != width:
-        raise ValueError(f"a phase one-hot of width {width} does not split into {config.num_arms} arms' blocks")
-    index = arm_index.long() * slots + config.phase_slot(keyframe)
+    if slots < 1 or slots * config.phase_blocks != width:
+        raise ValueError(f"a phase one-hot of width {width} does not split into {config.phase_blocks} blocks")
+    block = arm_index.long()
+    if config.role_phase:
+        block = block + config.num_arms * torch.as_tensor(role).long().reshape(block.shape)
+    index = block * slots + config.phase_slot(keyframe)
     return nn.functional.one_hot(index, width).float()

@@ -111,6 +111,10 @@ class ResidualModelConfig:
     # keyframe: where the goal lay before the arms moved or hid it (the dirt a brush covers).
     goal_at_start: bool = False
     phase_slots: int = 25  # keyframe slots per arm of the (arm, keyframe) one-hot Manager input (0: none)
+    # The one-hot's blocks are (role, arm) pairs: the arm that moves first leads, decided per episode from what the
+    # arms see at its first keyframe (methods/role_assigner.py), so a layout that swaps the arms' parts (take tray)
+    # does not average two roles' targets in one slot. Needs --phase-slots > 0.
+    roles: bool = False
     normalise_inputs: bool = True  # standardise the Manager's inputs with the training inputs' statistics
     # The Manager's trunk reads the frozen prior's pooled features too; off: they let it memorise the demos.
     prior_features: bool = False
@@ -160,7 +164,8 @@ class ResidualModelConfig:
                               goal_dim=(GOAL_GEOMETRY_DIM if self.goal_objects
                                         else UNION_GEOMETRY_DIM if self.goal_extremities else BOX_GEOMETRY_DIM)
                               if self.goal_geometry else 0,
-                              phase_dim=self.phase_slots * len(ARM_ORDER), normalise_inputs=self.normalise_inputs,
+                              phase_dim=self.phase_slots * len(ARM_ORDER) * (2 if self.roles else 1),
+                              role_phase=self.roles and self.phase_slots > 0, normalise_inputs=self.normalise_inputs,
                               read_prior_features=self.prior_features, geometric_skip=self.geometric_skip,
                               # the gate scales continuous moves; an action-space residual makes none
                               output_gate=self.output_gate and not self.action_space,

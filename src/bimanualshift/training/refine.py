@@ -330,7 +330,7 @@ def refine(cfg: RefineConfig, text_encoder: TextEncoder | None = None) -> Path:
                           train_cfg.augment_copies, cfg.seed, memory=memory, own_memory=True)
     val_paths = list_episodes(train_cfg.validation_data, task)
     val = residual_data(residual.config, val_paths, prior_step, encoder, "prior outputs (val)",
-                        memory=memory) if val_paths else train
+                        memory=memory, role_assigner=policy.role_assigner) if val_paths else train
     reset_output_scale(residual)  # fine-tune the whole residual; its factors are chosen again afterwards
     optimizer = make_lamb(residual.parameters(), lr=cfg.lr)
     lambda_corr = cfg.lambda_corr if corrections is not None else 0.0

@@ -22,6 +22,7 @@ from bimanualshift.geometry.voxels import VoxelGrid
 from bimanualshift.memory.bank import MemoryBank, MemoryEntry
 from bimanualshift.memory.reference import REFERENCE_DIM, ProgressAlignment, episode_key, reference_vector
 from bimanualshift.methods.prior_step import FrozenPriorStep
+from bimanualshift.methods.role_assigner import RoleAssigner
 from bimanualshift.perception.arm_samples import ArmSamples, build_arm_samples
 from bimanualshift.priors.base import PriorOutput, UnimanualPrior
 from bimanualshift.residual.manager import ResidualConfig, action_lattice, manager_input_rows
@@ -36,6 +37,7 @@ from bimanualshift.training.augment import (
 )
 from bimanualshift.training.configs import ARM_ORDER
 from bimanualshift.training.prior_instruction import sample_features
+from bimanualshift.training.roles import assigned_roles, demo_roles
 
 
 @dataclass
@@ -135,7 +137,7 @@ def residual_data(config: ResidualConfig, paths: list[Path], prior_step: FrozenP
                   desc: str, augmentation: Se3Augmentation | None = None, augment_copies: int = 0, seed: int = 0,
                   memory: MemoryBank | None = None, own_memory: bool = False, build_memory: float | None = None,
                   task: str = "", earlier_memory: MemoryBank | None = None,
-                  samples: ArmSamples | None = None) -> ResidualData:
+                  samples: ArmSamples | None = None, role_assigner: RoleAssigner | None = None) -> ResidualData:
     """Manager inputs (as ``config`` reads them) and residual targets for every (keyframe, arm), from the frozen
     prior's outputs.
 
@@ -149,6 +151,9 @@ def residual_data(config: ResidualConfig, paths: list[Path], prior_step: FrozenP
     itself. ``build_memory`` (a confidence threshold) builds that bank from these episodes in the same pass,
     followed by the entries of ``earlier_memory`` (an earlier task's bank) when given. ``samples``, when given,
     are ``paths``' samples already built (``build_arm_samples``), so the demos are not voxelised twice.
+
+    With ``config.role_phase`` each row's role is the demos' own (``training/roles.py``), or with a
+    ``role_assigner`` the one it decides at the episode's first keyframe (validation: as a rollout would).
     """
     if augment_copies and augmentation is None:
         raise ValueError("augment_copies > 0 needs an augmentation (Se3Augmentation)")
@@ -166,6 +171,10 @@ def residual_data(config: ResidualConfig, paths: list[Path], prior_step: FrozenP
     generator = torch.Generator().manual_seed(seed)
     gripper = torch.as_tensor(samples.gripper_open, dtype=torch.float32)
     hold = torch.as_tensor(hold_labels(samples))
+    role = None
+    if config.role_phase:
+        role = torch.as_tensor(assigned_roles(role_assigner, samples) if role_assigner is not None
+                               else demo_roles(samples, hold.numpy()))
     clouds = prior_step.prior.observation == "points"
     scene = torch.as_tensor(samples.points if clouds else samples.voxels)
     target_pos, target_quat = torch.as_tensor(samples.action_pos), torch.as_tensor(samples.action_quat)
@@ -220,7 +229,7 @@ def residual_data(config: ResidualConfig, paths: list[Path], prior_step: FrozenP
         start_goal = (transform_goal_geometry(torch.as_tensor(samples.goal[first_rows(samples)]), grid, yaw, shift)
                       if config.start_goal_dim else None)
         inputs = manager_input_rows(config, features_t, proprio, other, text, base_t, arm_index,
-                                    torch.as_tensor(samples.keyframe), reference, goal, proposal_t, start_goal)
+                                    torch.as_tensor(samples.keyframe), reference, goal, proposal_t, start_goal, role)
         translation = moved_pos - base_t[:, :3]
         base_quat = base_t[:, 3:7].numpy()
         # a reference grasp turns with the scene, as the expert's does

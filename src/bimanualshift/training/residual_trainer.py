@@ -12,6 +12,7 @@ from dataclasses import asdict, replace
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import torch
 
 from bimanualshift.data.episode import list_episodes
@@ -40,7 +41,7 @@ from bimanualshift.training.prior_instruction import (
     choose_prior_instruction,
     suite_instructions,
 )
-from bimanualshift.training.residual_data import residual_data
+from bimanualshift.training.residual_data import hold_labels, residual_data
 from bimanualshift.training.residual_losses import (
     SELECT_BY,
     LossWeights,
@@ -49,6 +50,7 @@ from bimanualshift.training.residual_losses import (
     translation_report,
     validation_losses,
 )
+from bimanualshift.training.roles import assigned_roles, demo_roles, first_keyframe_rows, fit_role_assigner
 from bimanualshift.utils.config_files import load_safetensors, read_json_file
 from bimanualshift.utils.io import atomic_write_json
 
@@ -138,6 +140,21 @@ def resolve_prior_instruction(cfg: TrainConfig, prior_step: FrozenPriorStep, pat
     return chosen, samples
 
 
+def role_record(samples: ArmSamples, val_samples: ArmSamples | None) -> dict[str, Any]:
+    """The role assigner fitted on the training demos' roles, and how often it gives the validation demos their
+    own (per episode: both arms right)."""
+    assigner = fit_role_assigner(samples, hold_labels(samples))
+    record: dict[str, Any] = {"assigner": assigner, "by_arm_order": assigner.chooser is None,
+                              "train_accuracy": assigner.accuracy}
+    if val_samples is not None and len(val_samples):
+        first = first_keyframe_rows(val_samples)
+        truth = demo_roles(val_samples, hold_labels(val_samples))[first]
+        decided = assigned_roles(assigner, val_samples)[first]
+        record["validation_accuracy"] = round(float(np.mean(truth == decided)), 4)
+        record["validation_demos"] = int(len(np.unique(val_samples.episode)))
+    return record
+
+
 def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Path:
     started = time.time()
     out = Path(cfg.out)
@@ -173,15 +190,23 @@ def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Pat
     earlier_state, earlier_memory = (load_earlier(cfg.init_from, rcfg, model.retrieval) if cfg.init_from
                                      else (None, None))
     augmentation = Se3Augmentation(data.augment_translation_m, data.augment_yaw_deg)
+    val_paths = list_episodes(cfg.dataset.validation_data, cfg.dataset.task)
+    roles, val_samples = None, None
+    if rcfg.role_phase:  # the demos' roles label the assigner, which decides the validation demos' as a rollout
+        samples = samples or build_arm_samples(paths, prior_step.builder, prior.config.max_keyframes,
+                                               desc="voxelise train")
+        val_samples = (build_arm_samples(val_paths, prior_step.builder, prior.config.max_keyframes,
+                                         desc="voxelise val") if val_paths else None)
+        roles = role_record(samples, val_samples)
     train = residual_data(rcfg, paths, prior_step, text_encoder, "prior outputs (train)", augmentation,
                           data.augment_copies, optim.seed,
                           build_memory=model.retrieval_threshold if model.retrieval else None, task=data.task,
                           earlier_memory=earlier_memory, samples=samples)
     memory = train.memory
     rcfg = replace(rcfg, twin_references=train.twin_references)  # "slot_twin": the training demos' mean grasps
-    val_paths = list_episodes(cfg.dataset.validation_data, cfg.dataset.task)
     val = residual_data(rcfg, val_paths, prior_step, text_encoder, "prior outputs (val)",
-                        memory=memory) if val_paths else train
+                        memory=memory, samples=val_samples,
+                        role_assigner=roles["assigner"] if roles else None) if val_paths else train
     torch.manual_seed(cfg.optim.seed)  # here, so how the prior was obtained cannot change the residual's init
     residual = ResidualPolicy(rcfg, SkillBasis.from_verbs(text_encoder))
     if earlier_state is not None:
@@ -196,7 +221,8 @@ def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Pat
                        "task": cfg.dataset.task, "demos": len(paths), "train_config": asdict(cfg),
                        "text_encoder": cfg.model.text_encoder, "prior_instruction": prior_step.prior_instruction,
                        "instruction_chooser": (prior_step.instruction_chooser.to_dict()
-                                               if prior_step.instruction_chooser else None)}
+                                               if prior_step.instruction_chooser else None),
+                       "role_assigner": roles["assigner"].to_dict() if roles else None}
 
     weights = LossWeights(cfg.beta, cfg.gripper_weight, cfg.hold_weight)
 
@@ -229,5 +255,7 @@ def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Pat
                                              "train_samples": len(train.inputs),
                                              "validation_translation_error": translation_report(residual, val),
                                              "validation_rotation_error": rotation_report(residual, val),
-                                             **gate, **instruction_choice})
+                                             **gate, **instruction_choice,
+                                             **({"roles": {k: v for k, v in roles.items() if k != "assigner"}}
+                                                if roles else {})})
     return out / "best"
