@@ -236,6 +236,11 @@ register_method(_residual_method(
     "the arm that moves first in a demo leads, and a classifier fitted on the demos decides which arm leads from "
     "what the arms see at an episode's first keyframe (--roles true; compare with no_refinement on validation "
     "seeds)", refine=False, retrieval=True, roles=True))
+for _width in (32, 64, 128):
+    register_method(_residual_method(
+        f"hidden_{_width}", f"variant: the full method before refinement with a Manager of {_width}-wide hidden "
+        "layers instead of 256 (a lighter residual; compare with no_refinement on validation seeds)",
+        refine=False, retrieval=True, hidden=_width))
 register_method(_residual_method(
     "no_projection", "ablation: the prior sees the global scene", retrieval=True, use_projection=False,
     role="ablation"))

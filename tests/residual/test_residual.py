@@ -193,3 +193,18 @@ def test_a_residual_config_from_before_the_quaternion_sign_reads_w_positive() ->
 
     old = {k: v for k, v in ResidualConfig(feature_dim=5, text_dim=8).__dict__.items() if k != "quaternion_sign"}
     assert config_from_dict(ResidualConfig, old, "old residual", ignore_unknown=False).quaternion_sign == "w_positive"
+
+
+def test_the_manager_width_is_a_switch_and_sets_the_residual_size() -> None:
+    from bimanualshift.training.configs import ResidualModelConfig
+
+    sizes = {}
+    for hidden in (32, 256):
+        cfg = ResidualModelConfig(hidden=hidden).residual_config(16, 8)
+        assert cfg.hidden == hidden
+        policy = ResidualPolicy(cfg, SkillBasis(cfg.num_skills, 8))
+        assert policy.manager.trunk[0].out_features == hidden
+        sizes[hidden] = sum(p.numel() for p in policy.parameters())
+    assert sizes[32] < sizes[256] / 3
+    with pytest.raises(ValueError, match="hidden"):
+        ResidualModelConfig(hidden=0).residual_config(16, 8)

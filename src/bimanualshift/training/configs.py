@@ -115,6 +115,8 @@ class ResidualModelConfig:
     # arms see at its first keyframe (methods/role_assigner.py), so a layout that swaps the arms' parts (take tray)
     # does not average two roles' targets in one slot. Needs --phase-slots > 0.
     roles: bool = False
+    # Width of the Manager's two hidden layers (the residual's size: docs/residual.md, "A lighter residual").
+    hidden: int = 256
     normalise_inputs: bool = True  # standardise the Manager's inputs with the training inputs' statistics
     # The Manager's trunk reads the frozen prior's pooled features too; off: they let it memorise the demos.
     prior_features: bool = False
@@ -159,7 +161,10 @@ class ResidualModelConfig:
         from bimanualshift.perception.goal_geometry import BOX_GEOMETRY_DIM, GOAL_GEOMETRY_DIM, UNION_GEOMETRY_DIM
         from bimanualshift.residual.manager import ResidualConfig
 
+        if self.hidden < 1:
+            raise ValueError(f"--hidden must be a positive layer width, got {self.hidden}")
         return ResidualConfig(feature_dim=feature_dim, text_dim=text_dim, structured=self.structured,
+                              hidden=self.hidden,
                               reference_dim=REFERENCE_DIM if self.retrieval else 0,
                               goal_dim=(GOAL_GEOMETRY_DIM if self.goal_objects
                                         else UNION_GEOMETRY_DIM if self.goal_extremities else BOX_GEOMETRY_DIM)
