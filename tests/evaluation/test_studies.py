@@ -255,3 +255,22 @@ def test_the_whole_study_keeps_every_planned_task_and_method_and_adds_a_method_t
     # where --tasks replaces a study's tasks (no halves), the study asked for is that one
     few_shot = whole_study_plan("few_shot", {"tasks": ["lift_ball"]}, "results")
     assert all(cfg.tasks == ["lift_ball"] for _, cfg in few_shot)
+
+
+def test_the_realworld_studies_follow_the_papers_real_platform() -> None:
+    from bimanualshift.sim.task import task_class
+
+    table2 = study_runs("realworld")
+    assert [cfg.prior for _, cfg in table2] == ["peract_ur5e_v2", "dp_ur5e"]
+    assert all(cfg.demos == 15 for _, cfg in table2)
+    for task in table2[0][1].tasks:  # the twin's tasks, each with the tier and keyframes of its Table II row
+        cls = task_class(task)
+        assert cls.robot == "ur5e" and cls.tier and cls.paper_keyframes
+    generalisation = study_runs("realworld_generalisation")[0][1]
+    assert generalisation.tasks == ["block_threading"] and len(generalisation.perturbations) == len(PRESETS)
+    # trained once: Table III and the 15-demo few-shot cell reuse Table II's BS-PerAct models
+    assert generalisation.runs == table2[0][1].runs == study_runs("realworld_few_shot")[0][1].runs
+    assert [cfg.demos for _, cfg in study_runs("realworld_few_shot")] == [15, 5]
+    long = [cfg for _, cfg in study_runs("realworld_long_horizon")]
+    assert [c.tasks for c in long] == [["toasting_completion"], ["toaster_activation"], ["serve_toast"]]
+    assert long[2].demos == 5 and long[1].continue_from.startswith(long[0].runs)

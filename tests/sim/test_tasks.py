@@ -196,3 +196,13 @@ def test_every_colour_prompt_names_a_painted_object_of_its_class(env: Manipulati
 def test_unknown_task_error() -> None:
     with pytest.raises(KeyError, match="unknown task 'nope'; registered tasks"):
         ManipulationEnv("nope")
+
+
+def test_a_tabulated_task_has_its_papers_tier_and_keyframe_count(env: ManipulationEnv) -> None:
+    task = env.task
+    assert (task.tier == "") == (task.paper_keyframes == 0)
+    if not task.paper_keyframes:
+        return
+    assert task.tier in ("Coordination", "Collaboration", "Precision")
+    env.reset(seed=3, options={"render": False, "settle": False})
+    assert len(env.expert_keyframes()) == task.paper_keyframes

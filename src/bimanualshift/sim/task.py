@@ -165,6 +165,10 @@ class Task(ABC):
     # Root bodies whose mirror image (a left-right exchange) is the body turned half round, not reflected:
     # those symmetric across their own y-z plane but not their x-z plane (``perturb_scene.mirror_bodies``).
     mirrored_by_half_turn: ClassVar[tuple[str, ...]] = ()
+    # Where the paper tabulates the task: its tier ("Coordination", "Collaboration", "Precision") and keyframe count
+    # (Table II); empty for the tasks it has no such row for.
+    tier: ClassVar[str] = ""
+    paper_keyframes: ClassVar[int] = 0
 
     def __init__(self, perturbations: Perturbations | None = None) -> None:
         self.perturbations = perturbations or Perturbations()

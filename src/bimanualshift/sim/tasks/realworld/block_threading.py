@@ -126,6 +126,8 @@ class ThreadingTask(Task):
 @register_task("block_threading")
 class BlockThreading(ThreadingTask):
     bimanual = True
+    tier = "Precision"
+    paper_keyframes = 4
 
     def scene_xml(self) -> str:
         unseen = self.perturbations.unseen_shapes

@@ -24,6 +24,8 @@ from bimanualshift.sim.tasks.realworld.toaster_scene import (
 @register_task("toaster_activation")
 class ToasterActivation(ToasterTask):
     bimanual = True
+    tier = "Collaboration"
+    paper_keyframes = 6
 
     def scene_xml(self) -> str:
         return toaster_xml("toaster")

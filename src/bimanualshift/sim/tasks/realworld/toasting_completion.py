@@ -31,6 +31,8 @@ from bimanualshift.sim.tasks.realworld.toaster_scene import (
 @register_task("toasting_completion")
 class ToastingCompletion(ToasterTask):
     bimanual = True
+    tier = "Coordination"
+    paper_keyframes = 6
 
     def scene_xml(self) -> str:
         return toaster_xml("toaster") + rack_xml("rack") + bread_xml("bread")

@@ -40,6 +40,8 @@ def _side_region(region: tuple[tuple[float, float], tuple[float, float]], side: 
 @register_task("vegetable_sorting")
 class VegetableSorting(Task):
     bimanual = True
+    tier = "Coordination"
+    paper_keyframes = 4
     robot = "ur5e"
 
     def scene_xml(self) -> str:
