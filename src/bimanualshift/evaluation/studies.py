@@ -82,41 +82,42 @@ REALWORLD_PRIOR, REALWORLD_DP_PRIOR = "peract_ur5e_v2", "dp_ur5e"
 REALWORLD_METHODS = ["bimanualshift", "peract_lf", "scratch_dp", "no_residual"]
 REALWORLD_RUNS = "runs/realworld"
 REALWORLD_EPISODES = 30  # test episodes per cell (the paper ran 20 trials); `--episodes` overrides
+
+
+def _twin(**fields: Any) -> BenchConfig:
+    """A benchmark run on the twin: its prior, its demos folder and its episode count unless ``fields`` say."""
+    return BenchConfig(**{"prior": REALWORLD_PRIOR, "data": "data/realworld", "episodes": REALWORLD_EPISODES,
+                          **fields})
+
+
+_LONG = f"{REALWORLD_RUNS}/long_horizon"
 _STUDIES += [
     Study("realworld", "Table II on the twin: the real-world tasks at 15 demos; BimanualShift over the PerAct-style "
           "and the Diffusion Policy prior, PerAct-LF, Diffusion Policy from scratch and the frozen prior per arm", (
-              ("BS-PerAct prior", BenchConfig(tasks=REALWORLD_TASKS, demos=15, methods=REALWORLD_METHODS,
-                                              prior=REALWORLD_PRIOR, data="data/realworld", episodes=REALWORLD_EPISODES,
-                                              out="realworld/peract", runs=f"{REALWORLD_RUNS}/peract")),
-              ("BS-DP prior", BenchConfig(tasks=REALWORLD_TASKS, demos=15, methods=["bimanualshift"],
-                                          prior=REALWORLD_DP_PRIOR, data="data/realworld", episodes=REALWORLD_EPISODES,
-                                          out="realworld/dp", runs=f"{REALWORLD_RUNS}/dp")))),
+              ("BS-PerAct prior", _twin(tasks=REALWORLD_TASKS, demos=15, methods=REALWORLD_METHODS,
+                                        out="realworld/peract", runs=f"{REALWORLD_RUNS}/peract")),
+              ("BS-DP prior", _twin(tasks=REALWORLD_TASKS, demos=15, methods=["bimanualshift"],
+                                    prior=REALWORLD_DP_PRIOR, out="realworld/dp", runs=f"{REALWORLD_RUNS}/dp")))),
     Study("realworld_generalisation", "Table III on the twin: block threading under the seven perturbations, each "
           "method trained once on unperturbed demos; stage-wise approach / alignment / insertion", (
-              ("perturbations", BenchConfig(tasks=["block_threading"], demos=15, methods=["bimanualshift", "peract_lf"],
-                                            prior=REALWORLD_PRIOR, perturbations=list(PRESETS), data="data/realworld", episodes=REALWORLD_EPISODES,
-                                            out="realworld_generalisation/perturbations",
-                                            runs=f"{REALWORLD_RUNS}/peract")),)),
+              ("perturbations", _twin(tasks=["block_threading"], demos=15, methods=["bimanualshift", "peract_lf"],
+                                      perturbations=list(PRESETS), out="realworld_generalisation/perturbations",
+                                      runs=f"{REALWORLD_RUNS}/peract")),)),
     Study("realworld_few_shot", "Fig. 11a on the twin: 15 and 5 demos", tuple(
-        (f"{n} demos", BenchConfig(tasks=["vegetable_sorting", "block_threading"], demos=n,
-                                   methods=["bimanualshift", "peract_lf"], prior=REALWORLD_PRIOR, data="data/realworld", episodes=REALWORLD_EPISODES,
-                                   out=f"realworld_few_shot/demos_{n}",
-                                   runs=f"{REALWORLD_RUNS}/{'peract' if n == 15 else f'few_shot_{n}'}"))
+        (f"{n} demos", _twin(tasks=["vegetable_sorting", "block_threading"], demos=n,
+                             methods=["bimanualshift", "peract_lf"], out=f"realworld_few_shot/demos_{n}",
+                             runs=f"{REALWORLD_RUNS}/{'peract' if n == 15 else f'few_shot_{n}'}"))
         for n in (15, 5))),
     Study("realworld_long_horizon", "Fig. 11b on the twin: toasting completion, then toaster activation, each from "
           "the last, then the four-stage insert-press-grasp-place task from 5 demos", (
-              ("task 1", BenchConfig(tasks=["toasting_completion"], demos=15, methods=LONG_HORIZON_METHODS,
-                                     prior=REALWORLD_PRIOR, data="data/realworld", episodes=REALWORLD_EPISODES,
-                                     out="realworld_long_horizon/task1", runs=f"{REALWORLD_RUNS}/long_horizon/task1")),
-              ("task 2", BenchConfig(tasks=["toaster_activation"], demos=15, methods=LONG_HORIZON_METHODS,
-                                     prior=REALWORLD_PRIOR, data="data/realworld", episodes=REALWORLD_EPISODES,
-                                     out="realworld_long_horizon/task2", runs=f"{REALWORLD_RUNS}/long_horizon/task2",
-                                     continue_from=f"{REALWORLD_RUNS}/long_horizon/task1/toasting_completion")),
-              ("long task", BenchConfig(tasks=["serve_toast"], demos=5, methods=LONG_HORIZON_METHODS,
-                                        prior=REALWORLD_PRIOR, data="data/realworld", episodes=REALWORLD_EPISODES,
-                                        out="realworld_long_horizon/serve_toast",
-                                        runs=f"{REALWORLD_RUNS}/long_horizon/serve_toast",
-                                        continue_from=f"{REALWORLD_RUNS}/long_horizon/task2/toaster_activation")))),
+              ("task 1", _twin(tasks=["toasting_completion"], demos=15, methods=LONG_HORIZON_METHODS,
+                               out="realworld_long_horizon/task1", runs=f"{_LONG}/task1")),
+              ("task 2", _twin(tasks=["toaster_activation"], demos=15, methods=LONG_HORIZON_METHODS,
+                               out="realworld_long_horizon/task2", runs=f"{_LONG}/task2",
+                               continue_from=f"{_LONG}/task1/toasting_completion")),
+              ("long task", _twin(tasks=["serve_toast"], demos=5, methods=LONG_HORIZON_METHODS,
+                                  out="realworld_long_horizon/serve_toast", runs=f"{_LONG}/serve_toast",
+                                  continue_from=f"{_LONG}/task2/toaster_activation")))),
 ]
 STUDY_TABLE = {s.name: s for s in _STUDIES}
 STUDIES = tuple(STUDY_TABLE)
