@@ -34,6 +34,11 @@ def role_features(goal: np.ndarray, proprio: np.ndarray, other_proprio: np.ndarr
     return np.concatenate([base, base * (2 * index - 1), index], axis=1)
 
 
+def fixed_by_arm(roles: np.ndarray, arm_index: np.ndarray) -> bool:
+    """Whether every arm plays the same role in every demo (sweep to dustpan: the right arm always leads)."""
+    return all(len(set(np.asarray(roles)[np.asarray(arm_index) == a].tolist())) <= 1 for a in set(arm_index.tolist()))
+
+
 @dataclass
 class RoleAssigner:
     """Decides the roles (0 leads, 1 follows) of an episode's arms; ``chooser`` None: role = the arm's index."""
@@ -66,10 +71,11 @@ class RoleAssigner:
 
     @classmethod
     def fit(cls, features: np.ndarray, roles: np.ndarray, arm_index: np.ndarray) -> RoleAssigner:
-        """From (N, F) first-keyframe features of demo arms, their roles (N,) and arm indices (N,): the identity
-        when every demo's roles are its arms' order, else a fitted classifier."""
+        """From (N, F) first-keyframe features of demo arms, their roles (N,) and arm indices (N,): no classifier
+        when each arm plays one role in every demo (the roles then say no more than the arms' names; a trainer
+        keeps the per-arm slots), else a fitted classifier."""
         roles, arm_index = np.asarray(roles), np.asarray(arm_index)
-        if np.array_equal(roles, arm_index):
+        if fixed_by_arm(roles, arm_index):
             return cls(None, 1.0)
         labels = [LEADS if r == 0 else FOLLOWS for r in roles]
         chooser = InstructionChooser.fit(features, labels)

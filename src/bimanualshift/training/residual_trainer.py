@@ -23,7 +23,7 @@ from bimanualshift.methods.instruction_chooser import InstructionChooser
 from bimanualshift.methods.prior_step import FrozenPriorStep, goal_switches
 from bimanualshift.perception.arm_samples import ArmSamples, build_arm_samples
 from bimanualshift.priors.base import UnimanualPrior
-from bimanualshift.residual.manager import ResidualConfig, ResidualPolicy
+from bimanualshift.residual.manager import NUM_ROLES, ResidualConfig, ResidualPolicy
 from bimanualshift.residual.output_gate import choose_output_scale, reset_output_scale
 from bimanualshift.residual.skills import SkillBasis
 from bimanualshift.training.augment import Se3Augmentation
@@ -146,7 +146,7 @@ def role_record(samples: ArmSamples, val_samples: ArmSamples | None) -> dict[str
     assigner = fit_role_assigner(samples, hold_labels(samples))
     record: dict[str, Any] = {"assigner": assigner, "by_arm_order": assigner.chooser is None,
                               "train_accuracy": assigner.accuracy}
-    if val_samples is not None and len(val_samples):
+    if assigner.chooser is not None and val_samples is not None and len(val_samples):
         first = first_keyframe_rows(val_samples)
         truth = demo_roles(val_samples, hold_labels(val_samples))[first]
         decided = assigned_roles(assigner, val_samples)[first]
@@ -198,6 +198,9 @@ def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Pat
         val_samples = (build_arm_samples(val_paths, prior_step.builder, prior.config.max_keyframes,
                                          desc="voxelise val") if val_paths else None)
         roles = role_record(samples, val_samples)
+        if roles["by_arm_order"]:  # each arm plays one role throughout: the per-arm slots say the same
+            rcfg = replace(rcfg, role_phase=False, phase_dim=rcfg.phase_dim // NUM_ROLES)
+            roles = {k: v for k, v in roles.items() if k != "assigner"}
     train = residual_data(rcfg, paths, prior_step, text_encoder, "prior outputs (train)", augmentation,
                           data.augment_copies, optim.seed,
                           build_memory=model.retrieval_threshold if model.retrieval else None, task=data.task,
@@ -206,7 +209,7 @@ def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Pat
     rcfg = replace(rcfg, twin_references=train.twin_references)  # "slot_twin": the training demos' mean grasps
     val = residual_data(rcfg, val_paths, prior_step, text_encoder, "prior outputs (val)",
                         memory=memory, samples=val_samples,
-                        role_assigner=roles["assigner"] if roles else None) if val_paths else train
+                        role_assigner=roles.get("assigner") if roles else None) if val_paths else train
     torch.manual_seed(cfg.optim.seed)  # here, so how the prior was obtained cannot change the residual's init
     residual = ResidualPolicy(rcfg, SkillBasis.from_verbs(text_encoder))
     if earlier_state is not None:
@@ -222,7 +225,7 @@ def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Pat
                        "text_encoder": cfg.model.text_encoder, "prior_instruction": prior_step.prior_instruction,
                        "instruction_chooser": (prior_step.instruction_chooser.to_dict()
                                                if prior_step.instruction_chooser else None),
-                       "role_assigner": roles["assigner"].to_dict() if roles else None}
+                       "role_assigner": roles["assigner"].to_dict() if roles and "assigner" in roles else None}
 
     weights = LossWeights(cfg.beta, cfg.gripper_weight, cfg.hold_weight)
 
