@@ -87,6 +87,15 @@ def _finished(run: Path) -> Path | None:
     return best if (run / "summary.json").is_file() and (best / "config.json").is_file() else None
 
 
+# Variants measured while the keyframe slots belonged to arm names (before --roles true became the default): they
+# keep the per-arm slots, so that their recorded rows (take tray's, where the roles change with the layout) stay
+# reproducible. Every other method, the ablations included, follows the default.
+PER_ARM_SLOT_VARIANTS = frozenset({
+    "action_space", "goal_extremities", "balanced_residual", "gripper_down_quaternions", "nearest_twin", "slot_twin",
+    "object_boxes", "start_goal", "augment_32", "augment_wide", "keyframe_gate", "prompted_prior",
+    "role_prompted_prior", "per_arm_slots"})
+
+
 def _residual_method(name: str, description: str, refine: bool = True, trains_as: str = "", role: str = "method",
                      refine_memory: str = "all", refine_validation: int = 0, **switches: Any) -> MethodSpec:
     """BimanualShift trained with ``switches`` (TrainConfig fields) on top of the request, then (``refine``)
@@ -94,6 +103,8 @@ def _residual_method(name: str, description: str, refine: bool = True, trains_as
     adds to the memory (RefineConfig.memory_insert); ``refine_validation`` > 0 also rolls out that many validation
     scenes whose corrections help pick the fine-tuning step (RefineConfig.validation_episodes). Any other choice
     than the paper's ("all", 0) refines in a folder of its own."""
+    if name in PER_ARM_SLOT_VARIANTS:
+        switches = {"roles": False, **switches}
     refine_folder = REFINE_FOLDER if refine_memory == "all" else f"{REFINE_FOLDER}_{refine_memory}"
     if refine_validation:
         refine_folder += f"_validated{refine_validation}"
@@ -234,8 +245,12 @@ register_method(_residual_method(
 register_method(_residual_method(
     "explicit_roles", "variant: the full method before refinement whose keyframe slots belong to (role, arm) pairs: "
     "the arm that moves first in a demo leads, and a classifier fitted on the demos decides which arm leads from "
-    "what the arms see at an episode's first keyframe (--roles true; compare with no_refinement on validation "
-    "seeds)", refine=False, retrieval=True, roles=True))
+    "what the arms see at an episode's first keyframe (--roles true, the default since it was measured: the same "
+    "as no_refinement now; kept for its recorded rows)", refine=False, retrieval=True, roles=True))
+register_method(_residual_method(
+    "per_arm_slots", "variant: the full method before refinement whose keyframe slots belong to arm names (--roles "
+    "false, the default before explicit roles; compare with no_refinement on validation seeds)", refine=False,
+    retrieval=True))
 for _width in (32, 64, 128):
     register_method(_residual_method(
         f"hidden_{_width}", f"variant: the full method before refinement with a Manager of {_width}-wide hidden "

@@ -96,7 +96,7 @@ def test_auto_choice_is_recorded_kept_on_resume_and_loaded(demo_root: Path, prio
         monkeypatch.setattr(f"bimanualshift.training.{module}.build_arm_samples", counted)
     best_dir = train_residual(cfg(2))
     # the choice and the residual read the same training samples: the demos are voxelised once, the validation once
-    assert built == [("voxelise train", 2), ("prior outputs (val)", 2)]
+    assert built == [("voxelise train", 2), ("voxelise val", 2)]  # the roles read both before the residual
     record = json.loads((tmp_path / PRIOR_INSTRUCTION_FILE).read_text())
     texts = [row["instruction"] for row in record["candidates"]]
     assert texts == ["(the task's own)", *suite_instructions(str(prior_dir))]

@@ -92,7 +92,7 @@ def test_the_first_keyframes_goal_moves_with_each_copy(demo_root: Path, prior_di
     n = len(data) // 2
     layout = config.layout()
     goal, start = data.inputs[:, layout["goal"]], data.inputs[:, layout["start_goal"]]
-    keyframe = data.inputs[:, layout["phase"]].argmax(-1) % (config.phase_dim // config.num_arms)
+    keyframe = data.inputs[:, layout["phase"]].argmax(-1) % config.slots_per_arm
     arm = data.inputs[:, layout["arm"]].argmax(-1)
     # unmoved rows: the start goal is the goal of the same arm's first keyframe, and constant over the episode
     firsts = [i for i in range(n) if keyframe[i] == 0]

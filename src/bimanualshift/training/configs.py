@@ -113,8 +113,9 @@ class ResidualModelConfig:
     phase_slots: int = 25  # keyframe slots per arm of the (arm, keyframe) one-hot Manager input (0: none)
     # The one-hot's blocks are (role, arm) pairs: the arm that moves first leads, decided per episode from what the
     # arms see at its first keyframe (methods/role_assigner.py), so a layout that swaps the arms' parts (take tray)
-    # does not average two roles' targets in one slot. Needs --phase-slots > 0.
-    roles: bool = False
+    # does not average two roles' targets in one slot. Needs --phase-slots > 0. Where each arm plays one role in
+    # every demo the run keeps the per-arm slots (the same residual). Chosen on validation seeds (docs/residual.md).
+    roles: bool = True
     # Width of the Manager's two hidden layers (the residual's size: docs/residual.md, "A lighter residual").
     hidden: int = 256
     normalise_inputs: bool = True  # standardise the Manager's inputs with the training inputs' statistics

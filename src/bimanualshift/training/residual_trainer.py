@@ -187,8 +187,6 @@ def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Pat
         raise ValueError(f"the prior {cfg.prior} exposes no local features for the Manager to read at its proposal; "
                          "train with --proposal-features false")
     data, model, optim = cfg.dataset, cfg.model, cfg.optim
-    earlier_state, earlier_memory = (load_earlier(cfg.init_from, rcfg, model.retrieval) if cfg.init_from
-                                     else (None, None))
     augmentation = Se3Augmentation(data.augment_translation_m, data.augment_yaw_deg)
     val_paths = list_episodes(cfg.dataset.validation_data, cfg.dataset.task)
     roles, val_samples = None, None
@@ -201,6 +199,9 @@ def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Pat
         if roles["by_arm_order"]:  # each arm plays one role throughout: the per-arm slots say the same
             rcfg = replace(rcfg, role_phase=False, phase_dim=rcfg.phase_dim // NUM_ROLES)
             roles = {k: v for k, v in roles.items() if k != "assigner"}
+    # after the roles: a run whose demos keep each arm in one role trains (and continues) the per-arm residual
+    earlier_state, earlier_memory = (load_earlier(cfg.init_from, rcfg, model.retrieval) if cfg.init_from
+                                     else (None, None))
     train = residual_data(rcfg, paths, prior_step, text_encoder, "prior outputs (train)", augmentation,
                           data.augment_copies, optim.seed,
                           build_memory=model.retrieval_threshold if model.retrieval else None, task=data.task,
