@@ -14,6 +14,7 @@ from bimanualshift.deploy.record import record
 from bimanualshift.deploy.sim_robot import MujocoRobot
 from bimanualshift.deploy.teleop import KeyboardTeleop, ScriptedTeleop
 from bimanualshift.sim.keyframes import discover_keyframes
+from bimanualshift.sim.task import task_class, task_names
 
 pytestmark = pytest.mark.slow
 
@@ -22,7 +23,8 @@ def test_scripted_teleop_records_a_trainable_episode(tmp_path: Path) -> None:
     [path] = record("push_two_buttons", ScriptedTeleop(), [0], tmp_path)
     episode = read_episode(path)  # the format's own validation
     assert episode.success and episode.dense is not None
-    keyframes = discover_keyframes(episode.dense["gripper_open"], episode.dense["joint_velocities"])
+    keyframes = discover_keyframes(episode.dense["gripper_open"], episode.dense["joint_velocities"],
+                                   hand_positions=episode.dense["eef_pose"])
     assert episode.num_keyframes == len(keyframes) >= 2
     # each action is the dense pose at its keyframe; the first observation is the scene before any motion
     assert np.allclose(episode.arrays["actions"][:, :, :7], episode.dense["eef_pose"][keyframes], atol=1e-6)
@@ -46,3 +48,12 @@ def test_keyboard_teleop_moves_the_selected_arm() -> None:
         assert last["right"][2] == 1.0 - start["right_gripper_open"] and last["left"][2] == start["left_gripper_open"]
     finally:
         robot.disconnect()
+
+
+@pytest.mark.parametrize("task", [t for t in task_names(robot="ur5e") if task_class(t).paper_keyframes])
+def test_a_teleoperated_twin_demo_has_its_tables_keyframe_count(task: str, tmp_path: Path) -> None:
+    # the scripted leader moves as a person would: on to the next pose without stopping, a pause at each key pose,
+    # seconds-long stops where a push is blocked; discovery must give one keyframe per key pose all the same
+    [path] = record(task, ScriptedTeleop(), [3], tmp_path)
+    episode = read_episode(path)
+    assert episode.success and abs(episode.num_keyframes - task_class(task).paper_keyframes) <= 1

@@ -35,7 +35,8 @@ def record_episode(robot: MujocoRobot, device: Teleoperator, seed: int, max_step
         states.append(env.get_state())
     dense = env.dense_trajectory()
     success = env.success()
-    keyframes = discover_keyframes(dense["gripper_open"], dense["joint_velocities"])
+    keyframes = discover_keyframes(dense["gripper_open"], dense["joint_velocities"],
+                                   hand_positions=dense["eef_pose"])
     # observation k is what the cameras saw before keyframe k's action: at step 0, then at each earlier keyframe
     observed = [0, *keyframes[:-1]]
     observations, actions = [], []

@@ -35,6 +35,9 @@ class ScriptedTeleop:
     settle_steps: int = 8  # after a gripper change
     arrive_m: float = 0.015  # the hand this close to the keyframe: on to the next (a person does not stop either)
     timeout_steps: int = 120  # per keyframe: move on even if the pose is not reached (a blocked push)
+    # at a key pose reached without a gripper change, hold still this many steps (a person pauses there, which is
+    # what keyframe discovery finds in a teleoperated demonstration); 0: straight on
+    dwell_steps: int = 10
 
     def start(self, robot: Any) -> None:
         env = robot.env
@@ -74,8 +77,8 @@ class ScriptedTeleop:
             changed = [arm for a, arm in enumerate(self.arms) if (target[a, 7] > 0.5) != (self.grip[arm] > 0.5)]
             for a, arm in enumerate(self.arms):
                 self.grip[arm] = float(target[a, 7] > 0.5)
-            if changed:
-                self.settle = self.settle_steps
+            if changed or self.dwell_steps:
+                self.settle = self.settle_steps if changed else self.dwell_steps
             else:
                 self.index, self.steps = self.index + 1, 0
         return out
