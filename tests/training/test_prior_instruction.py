@@ -43,6 +43,16 @@ def prior_dir(demo_root: Path, tmp_path_factory: pytest.TempPathFactory) -> Path
     return pretrain(pretrain_cfg(demo_root, tmp_path_factory.mktemp("prior"), steps=2))
 
 
+def first_observation(task: str = "push_two_buttons", seed: int = 0) -> KeyframeObservation:
+    """A task's first keyframe observation on a seed, as a policy meets it."""
+    env = ManipulationEnv(task)
+    try:
+        obs, _ = env.reset(seed=seed)
+        return KeyframeObservation.from_env(obs, scene_of_env(env))
+    finally:
+        env.close()
+
+
 def first_instruction(task: str) -> str:
     env = ManipulationEnv(task)
     try:
@@ -202,12 +212,7 @@ def test_per_arm_choice_learns_the_role_is_recorded_and_loaded(demo_root: Path, 
     assert chooser is not None and chooser.to_dict() == saved
 
     # at a real keyframe the loaded policy asks the left arm's prior DOOR and the right arm's its own instruction
-    env = ManipulationEnv("push_two_buttons")
-    try:
-        obs, _ = env.reset(seed=0)
-        frame = KeyframeObservation.from_env(obs, scene_of_env(env))
-    finally:
-        env.close()
+    frame = first_observation()
     per_arm = policy.prior_step.builder.build(frame)
     picks = {arm: chooser.choose(chooser_features(o.goal, o.proprio, o.other_proprio))[0] for arm, o in per_arm.items()}
     assert picks == {"left": DOOR, "right": OWN_PHRASING}

@@ -10,17 +10,16 @@ import numpy as np
 import pytest
 import torch
 
-from bimanualshift.data.frames import KeyframeObservation, scene_of_env
 from bimanualshift.encoders.text import default_text_encoder
 from bimanualshift.methods.bimanualshift import load_bimanualshift
 from bimanualshift.methods.role_assigner import RoleAssigner
 from bimanualshift.perception.arm_samples import ArmSamples
 from bimanualshift.residual.manager import ResidualConfig, arm_and_slot, manager_input_rows, phase_one_hot
-from bimanualshift.sim.env import ManipulationEnv
 from bimanualshift.training.configs import TrainConfig
 from bimanualshift.training.residual_trainer import train_residual
 from bimanualshift.training.roles import assigned_roles, demo_roles, fit_role_assigner
 from bimanualshift.utils.config_files import config_from_flat
+from tests.training.test_prior_instruction import first_observation
 
 
 def samples_of(episodes: list[tuple[str, str]], goal_y: list[float]) -> tuple[ArmSamples, np.ndarray]:
@@ -125,12 +124,7 @@ def test_a_roles_run_records_its_assigner_and_the_policy_decides_roles_at_the_fi
     assert saved["residual"]["role_phase"] and saved["residual"]["phase_dim"] == 4 * 25
     policy = load_bimanualshift(best, default_text_encoder())
     assert policy.role_assigner is not None and policy.role_assigner.chooser is not None
-    env = ManipulationEnv("push_two_buttons")
-    try:
-        obs, _ = env.reset(seed=0)
-        frame = KeyframeObservation.from_env(obs, scene_of_env(env))
-    finally:
-        env.close()
+    frame = first_observation()
     policy.reset()
     decisions = policy.decide(frame)
     roles = [entry["role"] for entry in policy.keyframe_log()["arms"]]
