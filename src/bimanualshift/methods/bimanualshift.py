@@ -124,8 +124,8 @@ class BimanualShift:
             self._last_action[arm] = action
             decisions.append(ArmDecision(arm, s, inputs[0], action, held))
         self._log = [decision_log(d) for d in decisions]
-        for entry in self._log:
-            if self._roles:
+        if self._roles:
+            for entry in self._log:
                 entry["role"] = self._roles[entry["arm"]]
         return decisions
 

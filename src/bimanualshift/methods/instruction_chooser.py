@@ -39,12 +39,15 @@ class InstructionChooser:
 
     def choose(self, features: np.ndarray) -> list[str]:
         """The instruction class for each row of ``features`` (N, F)."""
+        return [self.instructions[i] for i in self.logits(features).argmax(axis=1)]
+
+    def logits(self, features: np.ndarray) -> np.ndarray:
+        """(N, C) the regression's class logits for each row of ``features`` (N, F)."""
         features = np.atleast_2d(np.asarray(features, np.float64))
         if features.shape[1] != self.mean.shape[0]:
-            raise ValueError(f"the instruction chooser reads {self.mean.shape[0]} features per arm, got "
+            raise ValueError(f"the classifier reads {self.mean.shape[0]} features per arm, got "
                              f"{features.shape[1]}: it was fitted with another goal-geometry size; retrain the run")
-        logits = ((features - self.mean) / self.scale) @ self.weight.T + self.bias
-        return [self.instructions[i] for i in logits.argmax(axis=1)]
+        return ((features - self.mean) / self.scale) @ self.weight.T + self.bias
 
     @classmethod
     def fit(cls, features: np.ndarray, labels: list[str], l2: float = 1e-2, steps: int = 100) -> InstructionChooser:

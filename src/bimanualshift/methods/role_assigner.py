@@ -59,15 +59,9 @@ class RoleAssigner:
 
     def lead_logits(self, features: np.ndarray) -> np.ndarray:
         """(A,) how much likelier each arm leads than follows (the logistic regression's margin)."""
-        c = self.chooser
-        if features.shape[1] != c.mean.shape[0]:
-            raise ValueError(f"the role assigner reads {c.mean.shape[0]} features per arm, got {features.shape[1]}: "
-                             "it was fitted with another goal-geometry size; retrain the run")
-        logits = ((features - c.mean) / c.scale) @ c.weight.T + c.bias
-        if LEADS not in c.instructions:
-            return np.full(len(features), -np.inf)
-        lead = c.instructions.index(LEADS)
-        return logits[:, lead] - np.delete(logits, lead, axis=1).max(axis=1) if logits.shape[1] > 1 else logits[:, 0]
+        logits = self.chooser.logits(features)
+        lead = self.chooser.instructions.index(LEADS)
+        return logits[:, lead] - logits[:, 1 - lead]
 
     @classmethod
     def fit(cls, features: np.ndarray, roles: np.ndarray, arm_index: np.ndarray) -> RoleAssigner:
@@ -84,9 +78,7 @@ class RoleAssigner:
         return fitted
 
     def predict_rows(self, features: np.ndarray) -> np.ndarray:
-        """(N,) each row's role judged alone (1 = follows where the margin is negative); for reports."""
-        if self.chooser is None:
-            return features[:, -1].astype(np.int64)
+        """(N,) each row's role judged alone by the fitted classifier (1 = follows where the margin is negative)."""
         return (self.lead_logits(features) < 0).astype(np.int64)
 
     def to_dict(self) -> dict[str, Any]:
@@ -97,4 +89,7 @@ class RoleAssigner:
         if not isinstance(d, dict) or "chooser" not in d:
             raise ValueError("the saved role assigner is damaged (no 'chooser' entry): retrain with --roles true")
         chooser = InstructionChooser.from_dict(d["chooser"]) if d["chooser"] is not None else None
+        if chooser is not None and sorted(chooser.instructions) != sorted((LEADS, FOLLOWS)):
+            raise ValueError(f"the saved role assigner's classes are {chooser.instructions}, not {LEADS!r} and "
+                             f"{FOLLOWS!r}: retrain with --roles true")
         return cls(chooser, d.get("accuracy"))

@@ -160,7 +160,7 @@ class ResidualModelConfig:
         (``ResidualConfig``'s own defaults are what a checkpoint written before a field existed meant)."""
         from bimanualshift.memory.reference import REFERENCE_DIM
         from bimanualshift.perception.goal_geometry import BOX_GEOMETRY_DIM, GOAL_GEOMETRY_DIM, UNION_GEOMETRY_DIM
-        from bimanualshift.residual.manager import ResidualConfig
+        from bimanualshift.residual.manager import NUM_ROLES, ResidualConfig
 
         if self.hidden < 1:
             raise ValueError(f"--hidden must be a positive layer width, got {self.hidden}")
@@ -170,7 +170,7 @@ class ResidualModelConfig:
                               goal_dim=(GOAL_GEOMETRY_DIM if self.goal_objects
                                         else UNION_GEOMETRY_DIM if self.goal_extremities else BOX_GEOMETRY_DIM)
                               if self.goal_geometry else 0,
-                              phase_dim=self.phase_slots * len(ARM_ORDER) * (2 if self.roles else 1),
+                              phase_dim=self.phase_slots * len(ARM_ORDER) * (NUM_ROLES if self.roles else 1),
                               role_phase=self.roles and self.phase_slots > 0, normalise_inputs=self.normalise_inputs,
                               read_prior_features=self.prior_features, geometric_skip=self.geometric_skip,
                               # the gate scales continuous moves; an action-space residual makes none

@@ -35,9 +35,8 @@ from bimanualshift.training.augment import (
     transform_quats,
     transform_scene,
 )
-from bimanualshift.training.configs import ARM_ORDER
 from bimanualshift.training.prior_instruction import sample_features
-from bimanualshift.training.roles import assigned_roles, demo_roles
+from bimanualshift.training.roles import arm_indices, assigned_roles, demo_roles
 
 
 @dataclass
@@ -161,7 +160,7 @@ def residual_data(config: ResidualConfig, paths: list[Path], prior_step: FrozenP
         samples = build_arm_samples(paths, prior_step.builder, prior_step.prior.config.max_keyframes, desc=desc)
     grid = prior_step.builder.grid
     n = len(samples)
-    arm_index = torch.as_tensor([ARM_ORDER.index(a) if a in ARM_ORDER else 0 for a in samples.arm])
+    arm_index = torch.as_tensor(arm_indices(samples))
     text = torch.as_tensor(text_encoder.encode(samples.instructions))  # the residual's (Manager, memory key)
     # the prior's own encoder, and the instruction it is asked (``prior_step.prior_instruction``, or per arm its
     # chooser's pick from the unmoved sample: a role does not change with a rigid motion of the scene)

@@ -21,6 +21,7 @@ from bimanualshift.memory.bank import MemoryBank
 from bimanualshift.methods.bimanualshift import MEMORY_FILE, save_residual
 from bimanualshift.methods.instruction_chooser import InstructionChooser
 from bimanualshift.methods.prior_step import FrozenPriorStep, goal_switches
+from bimanualshift.methods.role_assigner import RoleAssigner
 from bimanualshift.perception.arm_samples import ArmSamples, build_arm_samples
 from bimanualshift.priors.base import UnimanualPrior
 from bimanualshift.residual.manager import NUM_ROLES, ResidualConfig, ResidualPolicy
@@ -140,19 +141,18 @@ def resolve_prior_instruction(cfg: TrainConfig, prior_step: FrozenPriorStep, pat
     return chosen, samples
 
 
-def role_record(samples: ArmSamples, val_samples: ArmSamples | None) -> dict[str, Any]:
-    """The role assigner fitted on the training demos' roles, and how often it gives the validation demos their
-    own (per episode: both arms right)."""
+def role_record(samples: ArmSamples, val_samples: ArmSamples | None) -> tuple[RoleAssigner | None, dict[str, Any]]:
+    """The role assigner fitted on the training demos' roles (None where each arm keeps one role: the per-arm slots
+    say the same), and its record: how often it gives the validation demos their own (per episode)."""
     assigner = fit_role_assigner(samples, hold_labels(samples))
-    record: dict[str, Any] = {"assigner": assigner, "by_arm_order": assigner.chooser is None,
-                              "train_accuracy": assigner.accuracy}
+    record: dict[str, Any] = {"by_arm_order": assigner.chooser is None, "train_accuracy": assigner.accuracy}
     if assigner.chooser is not None and val_samples is not None and len(val_samples):
         first = first_keyframe_rows(val_samples)
         truth = demo_roles(val_samples, hold_labels(val_samples))[first]
         decided = assigned_roles(assigner, val_samples)[first]
         record["validation_accuracy"] = round(float(np.mean(truth == decided)), 4)
         record["validation_demos"] = int(len(np.unique(val_samples.episode)))
-    return record
+    return (None if assigner.chooser is None else assigner), record
 
 
 def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Path:
@@ -189,16 +189,15 @@ def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Pat
     data, model, optim = cfg.dataset, cfg.model, cfg.optim
     augmentation = Se3Augmentation(data.augment_translation_m, data.augment_yaw_deg)
     val_paths = list_episodes(cfg.dataset.validation_data, cfg.dataset.task)
-    roles, val_samples = None, None
+    assigner, roles, val_samples = None, None, None
     if rcfg.role_phase:  # the demos' roles label the assigner, which decides the validation demos' as a rollout
         samples = samples or build_arm_samples(paths, prior_step.builder, prior.config.max_keyframes,
                                                desc="voxelise train")
         val_samples = (build_arm_samples(val_paths, prior_step.builder, prior.config.max_keyframes,
                                          desc="voxelise val") if val_paths else None)
-        roles = role_record(samples, val_samples)
-        if roles["by_arm_order"]:  # each arm plays one role throughout: the per-arm slots say the same
+        assigner, roles = role_record(samples, val_samples)
+        if assigner is None:  # each arm plays one role throughout: the per-arm slots say the same
             rcfg = replace(rcfg, role_phase=False, phase_dim=rcfg.phase_dim // NUM_ROLES)
-            roles = {k: v for k, v in roles.items() if k != "assigner"}
     # after the roles: a run whose demos keep each arm in one role trains (and continues) the per-arm residual
     earlier_state, earlier_memory = (load_earlier(cfg.init_from, rcfg, model.retrieval) if cfg.init_from
                                      else (None, None))
@@ -210,7 +209,7 @@ def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Pat
     rcfg = replace(rcfg, twin_references=train.twin_references)  # "slot_twin": the training demos' mean grasps
     val = residual_data(rcfg, val_paths, prior_step, text_encoder, "prior outputs (val)",
                         memory=memory, samples=val_samples,
-                        role_assigner=roles.get("assigner") if roles else None) if val_paths else train
+                        role_assigner=assigner) if val_paths else train
     torch.manual_seed(cfg.optim.seed)  # here, so how the prior was obtained cannot change the residual's init
     residual = ResidualPolicy(rcfg, SkillBasis.from_verbs(text_encoder))
     if earlier_state is not None:
@@ -226,7 +225,7 @@ def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Pat
                        "text_encoder": cfg.model.text_encoder, "prior_instruction": prior_step.prior_instruction,
                        "instruction_chooser": (prior_step.instruction_chooser.to_dict()
                                                if prior_step.instruction_chooser else None),
-                       "role_assigner": roles["assigner"].to_dict() if roles and "assigner" in roles else None}
+                       "role_assigner": assigner.to_dict() if assigner else None}
 
     weights = LossWeights(cfg.beta, cfg.gripper_weight, cfg.hold_weight)
 
@@ -260,6 +259,5 @@ def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Pat
                                              "validation_translation_error": translation_report(residual, val),
                                              "validation_rotation_error": rotation_report(residual, val),
                                              **gate, **instruction_choice,
-                                             **({"roles": {k: v for k, v in roles.items() if k != "assigner"}}
-                                                if roles else {})})
+                                             **({"roles": roles} if roles else {})})
     return out / "best"
