@@ -172,7 +172,7 @@ def export_lerobot(args: ExportLerobotArgs) -> None:
 
 @dataclass
 class ImportLerobotArgs:
-    dataset: Annotated[str, tyro.conf.Positional]  # a LeRobot v3.0 dataset folder
+    dataset: Annotated[str, tyro.conf.Positional]  # a LeRobot v3.0 dataset folder, or hf://datasets/ORG/NAME[@REV]
     out: str = "data/imported"  # where the episodes go (<out>/<task>/episode_<seed>.h5)
     calibration: str = ""  # arm base positions for a dataset that does not record them
     task: str = ""  # the task folder name for a dataset that does not record one (default: lerobot)
@@ -187,10 +187,11 @@ def import_lerobot(args: ImportLerobotArgs) -> None:
     from bimanualshift.data.kinematics import KinematicsModel
     from bimanualshift.data.lerobot_format import import_lerobot as read_dataset
     from bimanualshift.deploy.robot import Calibration
+    from bimanualshift.utils.hub import resolve_local
 
     bases = Calibration.load(args.calibration).arm_bases if args.calibration else None
     kinematics = KinematicsModel(args.kinematics) if args.kinematics else None
-    episodes = read_dataset(args.dataset, bases, kinematics, args.arms or None)
+    episodes = read_dataset(resolve_local(args.dataset, "dataset"), bases, kinematics, args.arms or None)
     for ep in episodes:
         if args.task:
             ep.task = args.task

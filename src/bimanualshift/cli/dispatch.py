@@ -81,6 +81,10 @@ COMMANDS: dict[str, Command] = {
     "import-lerobot": Command("deploy:import_lerobot", "read a LeRobot v3.0 dataset back into episodes (says which "
                               "features are missing)"),
     "report": Command("evaluate:report", "regenerate the README tables from the result files"),
+    "push": Command("share:push", "share a prior, checkpoint (with its memory bank) or dataset on the Hugging Face "
+                    "Hub with a model card from its config and result files (--dry-run: what would be sent)"),
+    "pull": Command("share:pull", "download a prior, checkpoint or dataset from the hub into the shared cache "
+                    "(then pass hf://ORG/NAME[@REV] to --prior, --checkpoint or --data)"),
 }
 
 # A user's mistake (a missing folder, a corrupt file, an unknown name, a bad value, a server that is not there)

@@ -12,9 +12,10 @@ from pathlib import Path
 
 import numpy as np
 
-from bimanualshift.data.episode import Episode, episode_is_current, episode_path, write_episode
+from bimanualshift.data.episode import Episode, episode_is_current, episode_path, list_episodes, write_episode
 from bimanualshift.sim.env import ManipulationEnv
 from bimanualshift.sim.env_cache import cached_env
+from bimanualshift.utils.hub import is_hub_ref
 from bimanualshift.utils.workers import run_jobs
 
 
@@ -85,7 +86,10 @@ def _collect_one(job: CollectJob) -> tuple[str, int, bool]:
 def collect(tasks: Iterable[str], seeds: Iterable[int], out: str | Path, workers: int = 1,
             image_size: int | None = None, skip_existing: bool = True,
             executor: str = "local") -> dict[str, dict[str, int]]:
-    """Collect expert demos; returns per task {"attempted", "succeeded", "skipped"}."""
+    """Collect expert demos; returns per task {"attempted", "succeeded", "skipped"}. A dataset on the hub
+    (``hf://datasets/...``) is read-only: its demos count as skipped and nothing is written."""
+    if is_hub_ref(out):
+        return {t: {"attempted": 0, "succeeded": 0, "skipped": len(list_episodes(out, t))} for t in tasks}
     jobs = []
     stats: dict[str, dict[str, int]] = {}
     for task in tasks:

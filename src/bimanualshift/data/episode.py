@@ -34,6 +34,7 @@ from typing import Any
 import h5py
 import numpy as np
 
+from bimanualshift.utils.hub import is_hub_ref, resolve_local
 from bimanualshift.utils.io import atomic_writer
 
 FORMAT_NAME = "bimanualshift-episode"
@@ -187,8 +188,18 @@ def _validate_dense(dense: dict[str, np.ndarray], n_arms: int, where: str) -> No
                                      f"{want} ({steps} control steps, {n_arms} arms, {joints} joints)")
 
 
+EPISODE_GLOB = "episode_*.h5"
+
+
 def list_episodes(root: str | Path, task: str) -> list[Path]:
-    return sorted((Path(root) / task).glob("episode_*.h5"))
+    """``root`` is a folder or an ``hf://datasets/...`` reference (its cached snapshot)."""
+    if is_hub_ref(root):
+        local = resolve_local(root, "dataset")
+        if (local / "meta" / "info.json").is_file():
+            raise ValueError(f"{root} is a LeRobot dataset: turn it into episodes once with `bimanualshift "
+                             f"import-lerobot {root} --out data/NAME`, then pass data/NAME")
+        root = local
+    return sorted((Path(root) / task).glob(EPISODE_GLOB))
 
 
 def episode_is_current(path: str | Path) -> bool:

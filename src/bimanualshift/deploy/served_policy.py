@@ -4,7 +4,6 @@ robot (the metadata sent on connect), and the one check the schema cannot make a
 from __future__ import annotations
 
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -17,6 +16,7 @@ from bimanualshift.geometry.cameras import view_coverage
 from bimanualshift.rollout.loop import KEYFRAME_BUDGET
 from bimanualshift.sim.layout import TABLE_SIZE, TABLE_TOP_Z
 from bimanualshift.utils.config_files import read_json_file
+from bimanualshift.utils.hub import resolve_local
 
 # The cameras and size the benchmark's checkpoints saw; a residual checkpoint names its own demos, which say better.
 SIM_IMAGE_SIZE = 128
@@ -105,14 +105,14 @@ def load_served_policy(method: str, checkpoint: str = "", prior: str = "", segme
     text_encoder = default_text_encoder()
     cameras: tuple[list[str], list[int]] | None = None
     if checkpoint:
-        path = Path(checkpoint)
+        path = resolve_local(checkpoint)
         cfg = read_json_file(path / "config.json", "BimanualShift checkpoint")
         if cfg.get("type") != "bimanualshift":
             raise ValueError(f"{path} is not a BimanualShift checkpoint (config.json type {cfg.get('type')!r}); "
                              "serve a residual run's best/ folder, or a frozen prior with --prior NAME")
         policy = load_bimanualshift(path, text_encoder, segmenter=segmenter or None)
         policy.name = method
-        source = str(path)
+        source = str(checkpoint)
         used_segmenter = segmenter or cfg.get("segmenter", "simulator")
         cameras = _data_cameras(cfg)
     elif prior:

@@ -25,8 +25,19 @@ from bimanualshift.residual.checkpoint import (
     save_residual_checkpoint,
 )
 from bimanualshift.residual.manager import ResidualPolicy, action_lattice, manager_input_rows
+from bimanualshift.utils.hub import resolve_local
 
 MEMORY_FILE = "memory.safetensors"  # the frozen memory bank, beside the residual's weights
+BUNDLED_PRIOR = "prior"  # a checkpoint shared on the hub carries a prior that is neither shipped nor on the hub
+
+
+def checkpoint_prior(directory: Path, prior: str) -> str | Path:
+    """The prior a checkpoint names: a copy bundled inside the checkpoint (``prior/``, as `bimanualshift push`
+    writes it) before a name, hub reference or path read as given."""
+    bundled = directory / prior
+    if prior == BUNDLED_PRIOR and (bundled / "config.json").is_file():
+        return bundled
+    return prior
 
 
 class BimanualShift:
@@ -215,9 +226,9 @@ def load_bimanualshift(directory: str | Path, text_encoder: TextEncoder | None =
     """A trained (or refined) BimanualShift; ``text_encoder`` is the prior's (default: the bundled MiniLM it is
     pretrained with), the residual's comes from the checkpoint's ``text_encoder`` spec. ``segmenter`` replaces
     the one it was trained with (a real robot has no simulator maps: ``grounded_sam``)."""
-    directory = Path(directory)
+    directory = resolve_local(directory)
     cfg, rcfg = read_residual_config(directory)
-    prior = UnimanualPrior.from_pretrained(cfg["prior"])
+    prior = UnimanualPrior.from_pretrained(checkpoint_prior(directory, cfg["prior"]))
     text_encoder = text_encoder or default_text_encoder()
     spec = cfg.get("text_encoder", DEFAULT_SPEC)
     # Older checkpoints recorded the bundled model's folder instead of a spec.

@@ -33,6 +33,7 @@ from torch import nn
 from bimanualshift.configs import PRIOR_SIZES, prior_model_config
 from bimanualshift.perception.arm_samples import padded_cloud
 from bimanualshift.utils.config_files import CheckpointError, config_from_dict, load_checked_weights, read_json_file
+from bimanualshift.utils.hub import is_hub_ref, resolve_local
 from bimanualshift.utils.io import atomic_write_text, atomic_writer
 from bimanualshift.utils.plugins import load_plugins
 
@@ -229,8 +230,10 @@ VERSIONED_PRIORS = {"peract_suite_v1": "peract_suite", "dp_suite_v1": "dp_suite"
 
 
 def resolve_prior_path(name_or_path: str | Path) -> Path:
-    """A directory as given, or the shipped checkpoint of that name (or versioned name); a clear error for
-    neither."""
+    """A directory as given, the cached snapshot of an ``hf://`` reference, or the shipped checkpoint of that name
+    (or versioned name); a clear error for none of them."""
+    if is_hub_ref(name_or_path):
+        return resolve_local(name_or_path)
     path = Path(name_or_path)
     if path.is_dir():
         return path
@@ -238,7 +241,7 @@ def resolve_prior_path(name_or_path: str | Path) -> Path:
     if len(path.parts) == 1 and (SHIPPED_DIR / path).is_dir():
         return SHIPPED_DIR / path
     raise FileNotFoundError(f"no prior checkpoint directory {name_or_path!r} and no shipped prior of that name; "
-                            f"shipped: {shipped_priors()}")
+                            f"shipped: {shipped_priors()} (a prior on the hub: hf://ORG/NAME)")
 
 
 PRIORS: dict[str, type[UnimanualPrior]] = {}

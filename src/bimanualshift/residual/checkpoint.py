@@ -13,6 +13,7 @@ from safetensors.torch import save_file
 from bimanualshift.residual.manager import ResidualConfig, ResidualPolicy
 from bimanualshift.residual.skills import SkillBasis
 from bimanualshift.utils.config_files import CheckpointError, config_from_dict, load_checked_weights, read_json_file
+from bimanualshift.utils.hub import resolve_local
 from bimanualshift.utils.io import atomic_write_json, atomic_writer
 
 WEIGHTS_FILE, CONFIG_FILE = "model.safetensors", "config.json"
@@ -30,7 +31,7 @@ def save_residual_checkpoint(directory: str | Path, residual: ResidualPolicy, ex
 
 def read_residual_config(directory: str | Path) -> tuple[dict[str, Any], ResidualConfig]:
     """The checkpoint's whole config.json and its checked ``ResidualConfig``."""
-    directory = Path(directory)
+    directory = resolve_local(directory)
     path = directory / CONFIG_FILE
     if not path.is_file():
         raise FileNotFoundError(f"no BimanualShift checkpoint at {directory} ({CONFIG_FILE} missing); train one with "
@@ -44,6 +45,7 @@ def read_residual_config(directory: str | Path) -> tuple[dict[str, Any], Residua
 
 def load_residual_checkpoint(directory: str | Path, text_dim: int) -> tuple[dict[str, Any], ResidualPolicy]:
     """(config.json, the residual with its weights); ``text_dim`` is the width of the residual's text encoder."""
+    directory = resolve_local(directory)
     raw, config = read_residual_config(directory)
     residual = ResidualPolicy(config, SkillBasis(config.num_skills, text_dim))
     weights = Path(directory) / WEIGHTS_FILE
