@@ -118,7 +118,7 @@ def _residual_method(name: str, description: str, refine: bool = True, trains_as
         own = {k: v for k, v in request.overrides.items() if not k.startswith("refine_")}
         cfg = config_from_flat(TrainConfig, task=request.task, prior=request.prior, data=request.data,
                                validation_data=request.validation_data, out=request.out, demos=request.demos,
-                               steps=request.steps, seed=request.seed, **{**switches, **own})
+                               steps=request.steps, seed=request.seed, log=request.log, **{**switches, **own})
         best = _finished(Path(request.out)) or train_residual(cfg)
         if not refine:
             return best
@@ -130,7 +130,8 @@ def _residual_method(name: str, description: str, refine: bool = True, trains_as
             checkpoint=str(best), out=str(refined), start=request.demos, seed=request.seed,
             episodes=int(request.overrides.get("refine_episodes", REFINE_EPISODES)),
             steps=int(request.overrides.get("refine_steps", RefineConfig.steps)), workers=request.workers,
-            memory_insert=refine_memory, scenes_from=scenes_from, validation_episodes=refine_validation))
+            memory_insert=refine_memory, scenes_from=scenes_from, validation_episodes=refine_validation,
+            log=request.log))
 
     def load(checkpoint: Path | None, request: TrainRequest) -> Policy:
         from bimanualshift.methods.bimanualshift import load_bimanualshift

@@ -16,7 +16,7 @@ import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 
@@ -56,6 +56,7 @@ class BenchConfig:
     runs: str = "runs/bench"
     out: str = "results/bench"
     videos: int = 1  # test episodes recorded per task and method
+    log: Literal["none", "tensorboard", "wandb"] = "none"  # every trainer's curves, in its run folder (`train --log`)
     max_keyframes: int = 0  # a hard cap on episode length on top of the expert-relative budget (0: none)
     perturbations: list[str] = field(default_factory=lambda: ["none"])  # test-time presets (sim/perturbations.py)
     # Continual learning: a runs folder of one earlier task (runs/<bench>/<task>); every method that supports it
@@ -99,7 +100,7 @@ def _request(cfg: BenchConfig, task: str, method: str, training: bool = True) ->
     return TrainRequest(task=task, data=f"{cfg.data}/train", validation_data=f"{cfg.data}/validation",
                         demos=cfg.demos, prior=cfg.prior, out=f"{cfg.runs}/{task}/{get_method(method).run_name}",
                         steps=int(cfg.method_steps.get(method) or cfg.steps or get_method(method).steps),
-                        seed=cfg.seed, overrides=overrides, workers=cfg.workers)
+                        seed=cfg.seed, overrides=overrides, workers=cfg.workers, log=cfg.log)
 
 
 # The settings that change what a recorded episode or a trained run measures. A results folder holds the episodes
@@ -138,7 +139,8 @@ def check_results_folder(cfg: BenchConfig) -> None:
 def check_training_run(request: TrainRequest, refine_folder: str = REFINE_FOLDER) -> None:
     """A training run is resumed or reused only for the request that started it (paths and workers aside: data and
     runs may move, and the number of processes changes nothing)."""
-    settings = {k: v for k, v in asdict(request).items() if k not in ("data", "validation_data", "out", "workers")}
+    settings = {k: v for k, v in asdict(request).items()
+                if k not in ("data", "validation_data", "out", "workers", "log")}
     # refinement's settings belong to its own stage (``refine/``): the full method and its unrefined ablation
     # share the training run before it
     refine = {k: v for k, v in request.overrides.items() if k.startswith("refine_")}

@@ -31,6 +31,8 @@ class OptimConfig:
     # Early stopping: end the run once this many checkpoints in a row have not improved on the best validation
     # value (0: run every step). The best checkpoint is what the run hands on either way.
     patience: int = 0
+    # training curves: tensorboard (event files in OUT/tensorboard) or wandb (offline unless WANDB_MODE says)
+    log: Literal["none", "tensorboard", "wandb"] = "none"
 
 
 @dataclass
@@ -238,6 +240,7 @@ class RefineConfig:
     # "corrected" (only those the expert corrected: a reference from the policy's own success repeats where the
     # policy already goes) or "none" (the memory keeps the demos alone)
     memory_insert: Literal["all", "corrected", "none"] = "all"
+    log: Literal["none", "tensorboard", "wandb"] = "none"  # training curves, as `train --log`
     # another refinement folder whose scenes were rolled out from the same checkpoint with the same rollout
     # settings: its finished scenes are reused instead of rolled out again (variants differing only after the
     # rollouts, such as memory_insert, share them)

@@ -32,6 +32,7 @@ from bimanualshift.training.augment import Se3Augmentation
 from bimanualshift.training.configs import PriorDataConfig
 from bimanualshift.training.distributed import init_distributed, loss_module
 from bimanualshift.training.loop import run_training
+from bimanualshift.training.metric_log import open_logger
 from bimanualshift.training.optim import make_optimizer
 from bimanualshift.training.pretrain import (
     PriorBatches,
@@ -110,8 +111,9 @@ def train_voxel_network(spec: VoxelNetworkSpec, request: TrainRequest, out: Path
                                                    if prior is not None else None,
                                                    "validation_translation_accuracy": -value})
 
-    result = run_training(out, model, optimiser, request.steps, step_fn, request.seed, checkpoint_every, validate,
-                          on_best, desc=f"train {spec.name}", ctx=ctx)
+    with open_logger(request.log, out, {"network": spec.name, "task": request.task, "lr": lr}) as logger:
+        result = run_training(out, model, optimiser, request.steps, step_fn, request.seed, checkpoint_every,
+                              validate, on_best, desc=f"train {spec.name}", ctx=ctx, logger=logger)
     if ctx.is_main:
         atomic_write_json(out / "summary.json", {**result, "wall_time_s": round(time.time() - started, 1),
                                                  "train_samples": len(train), "processes": ctx.world_size})

@@ -18,6 +18,7 @@ from tqdm import tqdm
 
 from bimanualshift.training.checkpoint import latest_checkpoint, load_checkpoint, save_checkpoint
 from bimanualshift.training.distributed import Distributed
+from bimanualshift.training.metric_log import MetricLogger
 from bimanualshift.utils.io import atomic_write_json
 
 StepFn = Callable[[int, torch.Generator], dict[str, torch.Tensor]]
@@ -32,6 +33,13 @@ def _validation(validate_fn: ValidateFn, step: int) -> tuple[float, dict[str, fl
     return float(result), {}
 
 
+def _validation_scalars(record: dict[str, Any]) -> dict[str, Any]:
+    """A checkpoint record's validation figures, named for the logger (validation/value, validation/<detail>)."""
+    figures = {k.removeprefix("validation_"): v for k, v in record.items() if k.startswith("validation_")}
+    value = {"value": record["validation"]} if "validation" in record else {}
+    return {"validation": {**value, **figures}, "train": {"elapsed_s": record.get("elapsed_s")}}
+
+
 def step_generator(seed: int, step: int) -> torch.Generator:
     return torch.Generator().manual_seed(seed * 1_000_003 + step)
 
@@ -40,15 +48,18 @@ def run_training(run_dir: str | Path, model: nn.Module, optimizer: torch.optim.O
                  step_fn: StepFn, seed: int, checkpoint_every: int = 100,
                  validate_fn: ValidateFn | None = None, on_best: Callable[[int, float, float], None] | None = None,
                  desc: str = "train", ctx: Distributed | None = None,
-                 lr_factor: Callable[[int], float] | None = None, patience: int = 0) -> dict[str, Any]:
+                 lr_factor: Callable[[int], float] | None = None, patience: int = 0,
+                 logger: MetricLogger | None = None) -> dict[str, Any]:
     """Train for ``steps``; with ``ctx`` (several ``torchrun`` processes) every rank steps, losses are logged as
     their mean over the ranks, and only rank 0 validates and writes. ``lr_factor(step)`` scales every parameter
     group's learning rate at each step (a schedule; computed from the step, so resuming continues it).
     ``patience`` > 0 (one process only) stops early once that many checkpoints in a row have not improved on the
-    best validation value; a resumed run that had stopped stays stopped."""
+    best validation value; a resumed run that had stopped stays stopped. ``logger`` (rank 0) receives every step's
+    loss terms, learning rate and step time, and every checkpoint's validation figures."""
     if patience and ctx is not None and ctx.enabled:
         raise ValueError("early stopping (patience) runs in one process; use patience 0 under torchrun")
     ctx = ctx or Distributed()
+    logger = logger if logger is not None and ctx.is_main else MetricLogger()
     base_lr = [group["lr"] for group in optimizer.param_groups]
     run_dir = Path(run_dir)
     start, history, best = 0, [], {"step": None, "value": float("inf")}
@@ -66,6 +77,7 @@ def run_training(run_dir: str | Path, model: nn.Module, optimizer: torch.optim.O
         value, details = _validation(validate_fn, 0)
         best = {"step": 0, "value": value}
         history.append({"step": 0, "elapsed_s": 0.0, "validation": value, **details})
+        logger.scalars(0, _validation_scalars(history[-1]))
         if on_best is not None:
             on_best(0, best["value"], 0.0)
     bar = tqdm(range(start, steps), initial=start, total=steps, desc=desc, unit="step", disable=not ctx.is_main)
@@ -81,6 +93,7 @@ def run_training(run_dir: str | Path, model: nn.Module, optimizer: torch.optim.O
 
     stopped_at = history[-1]["step"] if exhausted() else None
     for step in (() if stopped_at is not None else bar):
+        step_started = time.perf_counter()
         model.train()
         if lr_factor is not None:
             for group, lr in zip(optimizer.param_groups, base_lr):
@@ -93,6 +106,8 @@ def run_training(run_dir: str | Path, model: nn.Module, optimizer: torch.optim.O
         for k, v in logged.items():
             sums[k] = sums.get(k, 0.0) + v
         counted += 1
+        logger.scalars(step + 1, {"loss": logged, "train": {"lr": optimizer.param_groups[0]["lr"],
+                                                            "step_time_s": time.perf_counter() - step_started}})
         bar.set_postfix(loss=round(logged["total"], 4), refresh=False)  # shown at the next timed redraw
         done = step + 1
         at_checkpoint = done % checkpoint_every == 0 or done == steps
@@ -112,6 +127,7 @@ def run_training(run_dir: str | Path, model: nn.Module, optimizer: torch.optim.O
                     if on_best is not None:
                         on_best(done, value, elapsed)
             history.append(record)
+            logger.scalars(done, _validation_scalars(record))
             save_checkpoint(run_dir, done, model, optimizer, {"history": history, "best": best, "elapsed_s": elapsed})
             atomic_write_json(run_dir / "history.json", {"history": history, "best": best})
             if exhausted():

@@ -37,6 +37,7 @@ from bimanualshift.training.configs import PretrainConfig
 from bimanualshift.training.distributed import Distributed, init_distributed, loss_module
 from bimanualshift.training.keyframe_errors import validation_summary
 from bimanualshift.training.loop import run_training
+from bimanualshift.training.metric_log import open_logger
 from bimanualshift.training.optim import lr_factor, make_optimizer
 from bimanualshift.utils.config_files import read_json_file
 from bimanualshift.utils.io import atomic_write_json, atomic_write_text
@@ -252,9 +253,10 @@ def pretrain(cfg: PretrainConfig) -> Path:
             cfg, kind, step, -value, len(paths), len(val_paths), earlier_s + elapsed_s,
             sum(p.numel() for p in model.parameters()), seeds_tried(paths), seeds_tried(val_paths)))
 
-    result = run_training(out, model, optimizer, opt.steps, step_fn, opt.seed, opt.checkpoint_every,
-                          validate, on_best, desc=f"pretrain {kind}", ctx=ctx,
-                          lr_factor=lambda step: lr_factor(opt.schedule, step, opt.steps, opt.warmup_steps))
+    with open_logger(opt.log if ctx.is_main else "none", out, asdict(cfg)) as logger:
+        result = run_training(out, model, optimizer, opt.steps, step_fn, opt.seed, opt.checkpoint_every,
+                              validate, on_best, desc=f"pretrain {kind}", ctx=ctx, logger=logger,
+                              lr_factor=lambda step: lr_factor(opt.schedule, step, opt.steps, opt.warmup_steps))
     summary = {**result, "wall_time_s": round(time.time() - started, 1), "train_samples": len(train),
                "processes": ctx.world_size}
     if ctx.is_main:

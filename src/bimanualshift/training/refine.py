@@ -46,6 +46,7 @@ from bimanualshift.sim.env import ManipulationEnv
 from bimanualshift.training.augment import Se3Augmentation
 from bimanualshift.training.configs import RefineConfig, TrainConfig
 from bimanualshift.training.loop import run_training
+from bimanualshift.training.metric_log import open_logger
 from bimanualshift.training.optim import make_lamb
 from bimanualshift.training.residual_data import (
     TARGET_FIELDS,
@@ -366,13 +367,15 @@ def refine(cfg: RefineConfig, text_encoder: TextEncoder | None = None) -> Path:
         save_residual(out / "best", residual, {**refine_meta, "refined_steps": step, "validation_loss": value},
                       memory)
 
-    result = run_training(out, residual, optimizer, cfg.steps, step_fn, cfg.seed, cfg.checkpoint_every,
-                          validate, on_best, desc="refine residual")
-    gate = {}
-    if residual.config.output_gate and (out / "best" / "model.safetensors").is_file():
-        residual.load_state_dict(load_safetensors(out / "best" / "model.safetensors"))
-        reset_output_scale(residual)
-        gate = {"output_gate": choose_output_scale(residual, val.inputs, val.translation, val.rotation)}
+    with open_logger(cfg.log, out, asdict(cfg)) as logger:
+        result = run_training(out, residual, optimizer, cfg.steps, step_fn, cfg.seed, cfg.checkpoint_every,
+                              validate, on_best, desc="refine residual", logger=logger)
+        gate = {}
+        if residual.config.output_gate and (out / "best" / "model.safetensors").is_file():
+            residual.load_state_dict(load_safetensors(out / "best" / "model.safetensors"))
+            reset_output_scale(residual)
+            gate = {"output_gate": choose_output_scale(residual, val.inputs, val.translation, val.rotation)}
+            logger.scalars(cfg.steps, gate)
         best = read_json_file(out / "best" / "config.json")
         save_residual(out / "best", residual, {**{k: v for k, v in best.items() if k not in ("type", "residual")},
                                                "output_scale": gate["output_gate"]}, memory)

@@ -18,3 +18,4 @@ class TrainRequest:
     seed: int = 0
     overrides: dict[str, Any] = field(default_factory=dict)  # the method's own training options
     workers: int = 1  # processes a trainer may roll out in (a resource: not part of what the run measures)
+    log: str = "none"  # training curves (tensorboard, wandb): how a run is watched, not what it measures

@@ -31,6 +31,7 @@ from bimanualshift.training.augment import Se3Augmentation
 from bimanualshift.training.checkpoint import latest_checkpoint
 from bimanualshift.training.configs import TrainConfig
 from bimanualshift.training.loop import run_training
+from bimanualshift.training.metric_log import open_logger
 from bimanualshift.training.optim import lr_factor, make_optimizer
 from bimanualshift.training.prior_instruction import (
     AUTO,
@@ -86,7 +87,7 @@ def load_earlier(init_from: str, rcfg: ResidualConfig, retrieval: bool
 
 
 # What a resumed run may change: more steps extend it; the demos' folders may move.
-RESUMABLE_CHANGES = ("optim.steps", "dataset.data", "dataset.validation_data", "out")
+RESUMABLE_CHANGES = ("optim.steps", "optim.log", "dataset.data", "dataset.validation_data", "out")
 
 
 def changed_settings(cfg: TrainConfig) -> list[str]:
@@ -240,17 +241,19 @@ def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Pat
         save_residual(out / "best", residual, {**checkpoint_meta, "trained_steps": step, "validation_loss": value},
                       memory)
 
-    result = run_training(out, residual, optimizer, optim.steps, step_fn, optim.seed, optim.checkpoint_every,
-                          validate, on_best, desc="train residual", patience=optim.patience,
-                          lr_factor=lambda step: lr_factor(optim.schedule, step, optim.steps, optim.warmup_steps))
-    if (out / "best" / "model.safetensors").is_file():  # report on the checkpoint the run hands on
-        residual.load_state_dict(load_safetensors(out / "best" / "model.safetensors"))
-    gate = {}
-    if rcfg.output_gate:
-        reset_output_scale(residual)
-        ungated = translation_report(residual, val)
-        gate = {"output_gate": {**choose_output_scale(residual, val.inputs, val.translation, val.rotation),
-                                "validation_translation_error_ungated": ungated}}
+    with open_logger(optim.log, out, asdict(cfg)) as logger:
+        result = run_training(out, residual, optimizer, optim.steps, step_fn, optim.seed, optim.checkpoint_every,
+                              validate, on_best, desc="train residual", patience=optim.patience, logger=logger,
+                              lr_factor=lambda step: lr_factor(optim.schedule, step, optim.steps, optim.warmup_steps))
+        if (out / "best" / "model.safetensors").is_file():  # report on the checkpoint the run hands on
+            residual.load_state_dict(load_safetensors(out / "best" / "model.safetensors"))
+        gate = {}
+        if rcfg.output_gate:
+            reset_output_scale(residual)
+            ungated = translation_report(residual, val)
+            gate = {"output_gate": {**choose_output_scale(residual, val.inputs, val.translation, val.rotation),
+                                    "validation_translation_error_ungated": ungated}}
+            logger.scalars(optim.steps, gate)  # the gate's choice: the scale kept per output, and its errors
         best = json.loads((out / "best" / "config.json").read_text())
         meta = {k: v for k, v in best.items() if k not in ("type", "residual")}
         save_residual(out / "best", residual, {**meta, "output_scale": gate["output_gate"]}, memory)
