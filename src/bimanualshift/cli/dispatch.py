@@ -81,6 +81,8 @@ COMMANDS: dict[str, Command] = {
     "import-lerobot": Command("deploy:import_lerobot", "read a LeRobot v3.0 dataset back into episodes (says which "
                               "features are missing)"),
     "report": Command("evaluate:report", "regenerate the README tables from the result files"),
+    "view": Command("figures:view", "write a logged episode (a bench folder's keyframes.jsonl, re-simulated for its "
+                    "cameras) or a demo's episode file as a rerun recording (.rrd)"),
     "push": Command("share:push", "share a prior, checkpoint (with its memory bank) or dataset on the Hugging Face "
                     "Hub with a model card from its config and result files (--dry-run: what would be sent)"),
     "pull": Command("share:pull", "download a prior, checkpoint or dataset from the hub into the shared cache "

@@ -29,6 +29,9 @@ class EvalArgs:
     # an episode stops at twice the expert's keyframe count on the same seed, and at most after this many (0: no cap)
     max_keyframes: int = 0
     out: str = ""  # write a result JSON here
+    # write every episode to this rerun recording (.rrd: cameras, each arm's projection, proposals and actions;
+    # open it with `rerun FILE.rrd`)
+    rerun: str = ""
 
 
 def evaluate(args: EvalArgs) -> None:
@@ -54,11 +57,19 @@ def evaluate(args: EvalArgs) -> None:
         policy = FrozenPriorPerArm.from_pretrained(args.prior, text_encoder, name=args.method,
                                                    use_projection=args.method == "no_residual")
     seeds = split_seeds(args.split, args.episodes)
+    recorder = None
+    if args.rerun:
+        from bimanualshift.viz.rerun_episode import EpisodeRecorder
+
+        recorder = EpisodeRecorder(args.rerun)
     records = []
     for task in names:
         env = ManipulationEnv(task)
-        records += evaluate_policy(env, policy, seeds, args.max_keyframes)
+        records += evaluate_policy(env, policy, seeds, args.max_keyframes, observer=recorder)
         env.close()
+    if recorder is not None:
+        recorder.close()
+        print(f"wrote {args.rerun} (open it with `rerun {args.rerun}`)")
     rows = success_rows(records)
     print_success_table(rows, f"{' '.join(names)} ({args.split} seeds)")
     if args.out:

@@ -1,9 +1,12 @@
-"""Figures: the arm-conditioned projection as a picture (the paper's Fig. 3)."""
+"""Figures: the arm-conditioned projection as a picture (the paper's Fig. 3); episodes in the rerun viewer."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Annotated
+
+import tyro
 
 
 @dataclass
@@ -40,3 +43,64 @@ def projection(args: ProjectionFigureArgs) -> None:
                                  title=f"{task}, seed {args.seed}, keyframe {index}: {env.task.instruction()!r}")
         print(f"{path} ({args.segmenter} segmenter)")
         env.close()
+
+
+@dataclass
+class ViewArgs:
+    # a keyframes.jsonl (or a bench/study folder holding one), or a demo's episode_*.h5
+    log: Annotated[str, tyro.conf.Positional, tyro.conf.arg(metavar="EPISODE_LOG")]
+    out: str = ""  # the .rrd to write (default: beside the log, named by the episodes chosen)
+    task: str = ""  # only this task's episodes
+    method: str = ""  # only this method's
+    seed: list[int] = field(default_factory=list)  # only these seeds (default: the first failed episode)
+    all: bool = False  # every episode that matches (default: the first failed one, else the first)
+    render: bool = True  # re-simulate each episode from its seed for the cameras (False: actions and scalars only)
+
+
+def view(args: ViewArgs) -> None:
+    from bimanualshift.utils.jsonl import read_records
+    from bimanualshift.viz.rerun_episode import EpisodeRecorder, record_demo, record_logged
+
+    source = Path(args.log)
+    if source.suffix == ".h5":
+        out = Path(args.out or source.with_suffix(".rrd"))
+        recorder = EpisodeRecorder(out)
+        record_demo(source, recorder)
+        recorder.close()
+        print(f"wrote {out} (open it with `rerun {out}`)")
+        return
+    logs = [source] if source.is_file() else sorted(source.rglob("keyframes.jsonl"))
+    logs = [p for p in logs if "superseded" not in p.parts]
+    if not logs:
+        raise FileNotFoundError(f"{source}: no keyframes.jsonl there; give a bench folder, its keyframes.jsonl "
+                                "or an episode_*.h5")
+    entries = [e for p in logs for e in read_records(p)
+               if (not args.task or e.get("task") == args.task) and (not args.method or e.get("method") == args.method)
+               and (not args.seed or int(e.get("seed", -1)) in args.seed)]
+    if not entries:
+        raise ValueError(f"no logged episode in {source} matches task {args.task or 'any'}, method "
+                         f"{args.method or 'any'}, seeds {args.seed or 'any'}")
+    if not args.all and not args.seed:
+        outcomes = _outcomes(logs)
+        failed = [e for e in entries if outcomes.get((e["task"], e["method"], e.get("perturbation", "none"),
+                                                      int(e["seed"]))) is False]
+        entries = (failed or entries)[:1]
+    first = entries[0]
+    out = Path(args.out or logs[0].parent / f"{first['task']}_{first['method']}_{first['seed']}.rrd")
+    recorder = EpisodeRecorder(out)
+    for entry in entries:
+        record_logged(entry, recorder, render=args.render)
+    recorder.close()
+    print(f"wrote {out}: {len(entries)} episode(s) (open it with `rerun {out}`)")
+
+
+def _outcomes(logs: list[Path]) -> dict[tuple, bool]:
+    """(task, method, perturbation, seed) -> success, from the episodes.jsonl beside each keyframes log."""
+    from bimanualshift.utils.jsonl import read_records
+
+    out = {}
+    for log in logs:
+        path = log.with_name("episodes.jsonl")
+        for e in read_records(path) if path.is_file() else []:
+            out[(e["task"], e["method"], e.get("perturbation", "none"), int(e["seed"]))] = bool(e["success"])
+    return out

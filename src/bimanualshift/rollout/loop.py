@@ -5,7 +5,7 @@ from __future__ import annotations
 import hashlib
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 from tqdm import tqdm
@@ -80,16 +80,26 @@ def episode_budget(env: ManipulationEnv, seed: int, cap: int = 0) -> int:
 ActFn = Callable[[int, KeyframeObservation], np.ndarray]
 
 
+class EpisodeObserver(Protocol):
+    """Watches episodes as they run (``viz.rerun_episode.EpisodeRecorder``): told of each episode, then of each
+    keyframe's observation and log row."""
+
+    def episode(self, task: str, method: str, seed: int, instruction: str) -> str: ...
+
+    def keyframe(self, root: str, k: int, obs: KeyframeObservation | None, row: dict[str, Any]) -> None: ...
+
+
 def rollout(env: ManipulationEnv, policy: Policy, seed: int, max_keyframes: int, record_camera: str | None = None,
-            act: ActFn | None = None) -> EpisodeRecord:
+            act: ActFn | None = None, observer: EpisodeObserver | None = None) -> EpisodeRecord:
     """One episode of at most ``max_keyframes``; ``act`` replaces the policy's own action (refinement uses it to
-    let the expert take over straying arms)."""
+    let the expert take over straying arms); ``observer`` sees every keyframe's observation and log row."""
     obs, _ = env.reset(seed=seed)
     scene = scene_of_env(env)
     # the scripted expert's plan from this initial state: what each keyframe is compared with in the log
     plan = [env.action_from_keyframe(kf) for kf in env.expert_keyframes()]
     policy.reset()
     frames = [obs["cameras"][record_camera]["rgb"]] if record_camera else []
+    root = observer.episode(env.task.name, policy.name, seed, env.task.instruction()) if observer else ""
     success, stages_done, steps, actions = False, 0, [], []
     for k in range(max_keyframes):
         frame = KeyframeObservation.from_env(obs, scene)
@@ -100,6 +110,8 @@ def rollout(env: ManipulationEnv, policy: Policy, seed: int, max_keyframes: int,
         stages_done = int(info["stages_done"])
         steps.append(keyframe_row(k, action, plan[k] if k < len(plan) else None, stages_done, policy,
                                   reached=obs["proprio"]))
+        if observer is not None:
+            observer.keyframe(root, k, frame, steps[-1])
         if record_camera:
             frames.append(obs["cameras"][record_camera]["rgb"])
         if success or truncated:
@@ -109,12 +121,15 @@ def rollout(env: ManipulationEnv, policy: Policy, seed: int, max_keyframes: int,
 
 
 def evaluate(env: ManipulationEnv, policy: Policy, seeds: list[int], max_keyframes: int = 0,
-             record_camera: str | None = None, record_episodes: int = 1) -> list[EpisodeRecord]:
-    """Episodes on ``seeds``, each within ``episode_budget`` (``max_keyframes`` caps it; 0: no cap)."""
+             record_camera: str | None = None, record_episodes: int = 1,
+             observer: EpisodeObserver | None = None) -> list[EpisodeRecord]:
+    """Episodes on ``seeds``, each within ``episode_budget`` (``max_keyframes`` caps it; 0: no cap), every one
+    shown to ``observer``."""
     records = []
     bar = tqdm(seeds, desc=f"eval {policy.name}", unit="ep")
     for i, seed in enumerate(bar):
         budget = episode_budget(env, seed, max_keyframes)
-        records.append(rollout(env, policy, seed, budget, record_camera if i < record_episodes else None))
+        records.append(rollout(env, policy, seed, budget, record_camera if i < record_episodes else None,
+                               observer=observer))
         bar.set_postfix(success=f"{np.mean([r.success for r in records]):.2f}", refresh=False)
     return records
