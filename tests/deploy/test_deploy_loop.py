@@ -3,6 +3,8 @@ server that dies mid-episode leaves the robot holding and the episode reported."
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from conftest import CountingPolicy
@@ -12,13 +14,14 @@ from bimanualshift.deploy.loop import run_sim_episode
 from bimanualshift.deploy.served_policy import load_served_policy
 from bimanualshift.deploy.server import PolicyServer, ServerConfig
 from bimanualshift.deploy.sim_robot import MujocoRobot
+from bimanualshift.evaluation.viewer import EpisodeRecorder, read_recording
 from bimanualshift.rollout.loop import rollout
 from bimanualshift.sim.env import ManipulationEnv
 
 pytestmark = pytest.mark.slow
 
 
-def test_deployed_episode_matches_the_offline_rollout() -> None:
+def test_deployed_episode_matches_the_offline_rollout(tmp_path: Path) -> None:
     served = load_served_policy("no_residual", prior="peract_suite")
     env = ManipulationEnv("push_two_buttons")
     exact: list[list] = []
@@ -35,7 +38,10 @@ def test_deployed_episode_matches_the_offline_rollout() -> None:
     robot = MujocoRobot("push_two_buttons")
     robot.connect()
     try:
-        deployed = run_sim_episode(robot, PolicyClient(f"ws://127.0.0.1:{server.port}"), seed=3, max_keyframes=2)
+        recorder = EpisodeRecorder(tmp_path / "deployed.rrd", points_per_camera=100)
+        deployed = run_sim_episode(robot, PolicyClient(f"ws://127.0.0.1:{server.port}"), seed=3, max_keyframes=2,
+                                   observer=recorder)
+        recorder.close()
     finally:
         robot.disconnect()
         server.stop()
@@ -43,6 +49,11 @@ def test_deployed_episode_matches_the_offline_rollout() -> None:
     assert deployed.executed == exact  # bit for bit: the codec and the schema change nothing
     assert deployed.success == offline.success and deployed.stages_done == offline.stages_done
     assert "arms" in deployed.diagnostics[0]
+    # the deployed episode in the viewer: what the robot's cameras gave the policy, and the server's log
+    seen = read_recording(tmp_path / "deployed.rrd")
+    root = "/push_two_buttons/deployed/seed_3"
+    assert seen["keyframes"] == [0, 1] and f"{root}/cameras/front/rgb" in seen["entities"]
+    assert seen["points"][f"{root}/arms/left/prior"] == [1, 1]  # the proposal the server logged
 
 
 def test_server_death_mid_episode_holds_and_reports() -> None:

@@ -14,6 +14,7 @@ from bimanualshift.evaluation.bench import BenchConfig, bench_rows, read_episode
 from bimanualshift.evaluation.explain import explain_rows
 from bimanualshift.evaluation.stats import wilson_interval
 from bimanualshift.evaluation.tables import bench_table, stage_table
+from bimanualshift.evaluation.viewer import read_recording
 from bimanualshift.registry import METHODS, REFINE_FOLDER, get_method
 
 
@@ -73,8 +74,13 @@ def test_bench_runs_resumes_and_reports(demo_root: Path, tmp_path: Path) -> None
     cfg = BenchConfig(tasks=["push_two_buttons"], methods=["bimanualshift", "no_residual"], demos=2,
                       validation_demos=1, episodes=2, prior=str(prior), steps=2, workers=1,
                       data=str(tmp_path / "data"), runs=str(tmp_path / "runs"), out=str(tmp_path / "out"), videos=1,
-                      max_keyframes=1, refine_episodes=1)
+                      max_keyframes=1, refine_episodes=1, rrd=str(tmp_path / "episodes.rrd"))
     summary = run_bench(cfg, command="test")
+    # the video episodes, recorded by the workers as they ran, merged into one recording for the viewer
+    seen = read_recording(tmp_path / "episodes.rrd")
+    assert {"/".join(e.split("/")[1:4]) for e in seen["entities"]} == {
+        "push_two_buttons/bimanualshift/seed_200000", "push_two_buttons/no_residual/seed_200000"}
+    assert "/push_two_buttons/no_residual/seed_200000/cameras/front/rgb" in seen["entities"]
     # the full method is refined before it is evaluated: its rollouts and corrections are recorded per task
     refined = json.loads(summary.read_text())["refinement"]
     assert set(refined) == {"push_two_buttons/bimanualshift"} and refined["push_two_buttons/bimanualshift"][

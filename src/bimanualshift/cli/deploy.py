@@ -73,6 +73,7 @@ class DeployArgs:
     # a `bimanualshift calibrate` file: its static camera poses and base anchors replace the simulator's truth
     calibration: str = ""
     out: str = ""  # write a result JSON (per-seed success, round trips, clipping) here
+    rrd: str = ""  # write every episode to this rerun recording (.rrd), as `eval --rrd` does: `rerun FILE.rrd`
 
 
 def deploy(args: DeployArgs) -> None:
@@ -86,16 +87,24 @@ def deploy(args: DeployArgs) -> None:
     started = time.time()
     client = PolicyClient(args.server, read_token(args.token_file))
     seeds = split_seeds(args.split, args.episodes)
+    recorder = None
+    if args.rrd:
+        from bimanualshift.evaluation.viewer import EpisodeRecorder
+
+        recorder = EpisodeRecorder(args.rrd)
     rows = []
     for task in resolve_tasks(args.task):
         calibration = Calibration.load(args.calibration) if args.calibration else None
-        records = deploy_sim(task, client, seeds, args.max_keyframes, calibration)
+        records = deploy_sim(task, client, seeds, args.max_keyframes, calibration, recorder)
         wins = sum(r.success for r in records)
         low, high = wilson_interval(wins, len(records))
         print(f"{task}: {wins}/{len(records)} ({100 * wins / len(records):.0f} %, 95 % CI {100 * low:.0f}-"
               f"{100 * high:.0f}); aborted {sum(bool(r.aborted) for r in records)}")
         rows += [episode_row(r) for r in records]
     client.close()
+    if recorder is not None:
+        recorder.close()
+        print(f"wrote {args.rrd} (open it with `rerun {args.rrd}`)")
     if args.out:
         write_result(args.out, command_line(), {args.split: seeds}, started, rows, server=client.metadata)
         print(f"wrote {args.out}")

@@ -31,7 +31,7 @@ class EvalArgs:
     out: str = ""  # write a result JSON here
     # write every episode to this rerun recording (.rrd: cameras, each arm's projection, proposals and actions;
     # open it with `rerun FILE.rrd`)
-    rerun: str = ""
+    rrd: str = ""
 
 
 def evaluate(args: EvalArgs) -> None:
@@ -58,10 +58,10 @@ def evaluate(args: EvalArgs) -> None:
                                                    use_projection=args.method == "no_residual")
     seeds = split_seeds(args.split, args.episodes)
     recorder = None
-    if args.rerun:
-        from bimanualshift.viz.rerun_episode import EpisodeRecorder
+    if args.rrd:
+        from bimanualshift.evaluation.viewer import EpisodeRecorder
 
-        recorder = EpisodeRecorder(args.rerun)
+        recorder = EpisodeRecorder(args.rrd)
     records = []
     for task in names:
         env = ManipulationEnv(task)
@@ -69,7 +69,7 @@ def evaluate(args: EvalArgs) -> None:
         env.close()
     if recorder is not None:
         recorder.close()
-        print(f"wrote {args.rerun} (open it with `rerun {args.rerun}`)")
+        print(f"wrote {args.rrd} (open it with `rerun {args.rrd}`)")
     rows = success_rows(records)
     print_success_table(rows, f"{' '.join(names)} ({args.split} seeds)")
     if args.out:

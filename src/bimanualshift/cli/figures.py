@@ -58,8 +58,8 @@ class ViewArgs:
 
 
 def view(args: ViewArgs) -> None:
+    from bimanualshift.evaluation.viewer import EpisodeRecorder, record_demo, record_logged
     from bimanualshift.utils.jsonl import read_records
-    from bimanualshift.viz.rerun_episode import EpisodeRecorder, record_demo, record_logged
 
     source = Path(args.log)
     if source.suffix == ".h5":

@@ -17,7 +17,7 @@ from bimanualshift.deploy.client import PolicyClient, ServerError, ServerUnavail
 from bimanualshift.deploy.robot import Calibration, action_dict, action_rows, observation_from_robot
 from bimanualshift.deploy.schema import action_from_reply, observation_message
 from bimanualshift.deploy.sim_robot import MujocoRobot
-from bimanualshift.rollout.loop import KEYFRAME_BUDGET, actions_digest
+from bimanualshift.rollout.loop import KEYFRAME_BUDGET, EpisodeObserver, actions_digest
 
 
 @dataclass
@@ -37,14 +37,17 @@ class DeployedEpisode:
     actions_sha256: str = ""
 
 
-def run_sim_episode(robot: MujocoRobot, client: PolicyClient, seed: int, max_keyframes: int = 0) -> DeployedEpisode:
+def run_sim_episode(robot: MujocoRobot, client: PolicyClient, seed: int, max_keyframes: int = 0,
+                    observer: EpisodeObserver | None = None) -> DeployedEpisode:
     """One episode on ``seed`` within the benchmark's budget (``KEYFRAME_BUDGET`` x the expert's keyframes;
-    ``max_keyframes`` caps it), every observation and action through the server's codec."""
+    ``max_keyframes`` caps it), every observation and action through the server's codec; ``observer`` sees each
+    keyframe's observation, the action sent and the server's policy log."""
     context = robot.reset_episode(seed)
     budget = KEYFRAME_BUDGET * robot.expert_keyframe_count()
     budget = min(budget, max_keyframes) if max_keyframes else budget
     record = DeployedEpisode(robot.task_name, seed, False, 0, 0)
     replied: list[np.ndarray] = []
+    root = observer.episode(robot.task_name, "deployed", seed, context.instruction) if observer else ""
     for k in range(budget):
         reading = robot.get_observation()
         obs = observation_from_robot(robot, reading, context, k)
@@ -63,6 +66,9 @@ def run_sim_episode(robot: MujocoRobot, client: PolicyClient, seed: int, max_key
         record.executed.append(action_rows(sent, robot.arm_names).tolist())
         record.clipped += sum(bool(sent[f"{arm}_clipped"]) for arm in robot.arm_names)
         record.keyframes, record.stages_done = k + 1, robot.stages_done
+        if observer is not None:
+            observer.keyframe(root, k, obs, {"keyframe": k, "executed": record.executed[-1], "expert": None,
+                                             "stages_done": robot.stages_done, "policy": record.diagnostics[-1]})
         if robot.success or sent["truncated"]:
             break
     record.success = robot.success
@@ -71,7 +77,8 @@ def run_sim_episode(robot: MujocoRobot, client: PolicyClient, seed: int, max_key
 
 
 def deploy_sim(task: str, client: PolicyClient, seeds: list[int], max_keyframes: int = 0,
-               calibration: Calibration | None = None) -> list[DeployedEpisode]:
+               calibration: Calibration | None = None, observer: EpisodeObserver | None = None
+               ) -> list[DeployedEpisode]:
     robot = MujocoRobot(task, calibration=calibration)
     robot.connect()
     records = []
@@ -79,7 +86,7 @@ def deploy_sim(task: str, client: PolicyClient, seeds: list[int], max_keyframes:
         for seed in tqdm(seeds, desc=f"deploy {task}", unit="ep"):
             if records and records[-1].aborted:
                 client.reconnect()
-            records.append(run_sim_episode(robot, client, seed, max_keyframes))
+            records.append(run_sim_episode(robot, client, seed, max_keyframes, observer))
     finally:
         robot.disconnect()
     return records

@@ -13,6 +13,7 @@ import json
 import shlex
 import sys
 import time
+import uuid
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -57,6 +58,9 @@ class BenchConfig:
     out: str = "results/bench"
     videos: int = 1  # test episodes recorded per task and method
     log: Literal["none", "tensorboard", "wandb"] = "none"  # every trainer's curves, in its run folder (`train --log`)
+    # record the --videos episodes for the rerun viewer too, merged into this .rrd (cameras, each arm's
+    # projection, proposals and actions: `rerun FILE.rrd`)
+    rrd: str = ""
     max_keyframes: int = 0  # a hard cap on episode length on top of the expert-relative budget (0: none)
     perturbations: list[str] = field(default_factory=lambda: ["none"])  # test-time presets (sim/perturbations.py)
     # Continual learning: a runs folder of one earlier task (runs/<bench>/<task>); every method that supports it
@@ -82,6 +86,8 @@ class BenchJob:
     video: str = ""  # write this episode's front-camera video here
     max_keyframes: int = 0
     perturbation: str = "none"
+    rrd: str = ""  # also record this episode for the rerun viewer, into this part file
+    rrd_id: str = ""  # the recording the parts merge into
 
 
 
@@ -237,7 +243,14 @@ def run_bench_episode(job: BenchJob) -> dict[str, Any]:
     policy = cached(("policy", job.method, job.task, job.checkpoint), lambda: get_method(job.method).load(
         Path(job.checkpoint) if job.checkpoint else None, TrainRequest(**job.request)))
     budget = episode_budget(env, job.seed, job.max_keyframes)
-    record = rollout(env, policy, job.seed, budget, record_camera="front" if job.video else None)
+    recorder = None
+    if job.rrd:
+        from bimanualshift.evaluation.viewer import EpisodeRecorder
+
+        recorder = EpisodeRecorder(job.rrd, recording_id=job.rrd_id)
+    record = rollout(env, policy, job.seed, budget, record_camera="front" if job.video else None, observer=recorder)
+    if recorder is not None:
+        recorder.close()
     if job.video:
         write_video(job.video, record.frames)
     return {"task": job.task, "method": job.method, "perturbation": job.perturbation, "seed": job.seed,
@@ -258,6 +271,7 @@ def record_episode(out: Path, episode: dict[str, Any]) -> None:
 
 read_episodes = read_records  # one finished episode per line
 KEYFRAME_LOG = "keyframes.jsonl"  # per episode: every keyframe's actions, the expert's and the policy's own log
+RRD_PARTS = "rerun_parts"  # each recorded episode's .rrd, before they are merged into --rrd
 append_episode = append_record
 
 
@@ -389,6 +403,8 @@ def run_bench(cfg: BenchConfig, command: str | None = None, started: float | Non
         supersede_all(cfg.rerun, cfg.methods, out, cfg.runs, tasks, git_commit())
 
     jobs = []
+    # the parts the workers write merge into one recording (episodes already recorded: `bimanualshift view`)
+    rrd_id = str(uuid.uuid5(uuid.NAMESPACE_URL, str(out.resolve())))
     from bimanualshift.sim.perturbations import preset
 
     for name in cfg.perturbations:
@@ -416,8 +432,9 @@ def run_bench(cfg: BenchConfig, command: str | None = None, started: float | Non
                 for i, seed in enumerate(seeds["test"]):
                     suffix = "" if perturbation == "none" else f"_{perturbation}"
                     video = str(out / "videos" / f"{task}_{method}{suffix}_{seed}.mp4") if i < cfg.videos else ""
+                    part = str(out / RRD_PARTS / f"{task}_{method}{suffix}_{seed}.rrd") if video and cfg.rrd else ""
                     jobs.append(BenchJob(method, task, seed, str(checkpoint or ""), asdict(request), video,
-                                         cfg.max_keyframes, perturbation))
+                                         cfg.max_keyframes, perturbation, part, rrd_id))
 
     todo = [j for j in jobs if (j.task, j.method, j.perturbation, j.seed) not in done]
     if done:
@@ -425,6 +442,13 @@ def run_bench(cfg: BenchConfig, command: str | None = None, started: float | Non
     run_jobs(run_bench_episode, todo, cfg.workers, desc="bench episodes", chunksize=1, executor=cfg.executor,
              on_result=lambda episode: record_episode(out, episode))
 
+    parts = sorted((out / RRD_PARTS).glob("*.rrd")) if cfg.rrd else []
+    if parts:
+        from bimanualshift.evaluation.viewer import merge_recordings
+
+        print(f"[bench] wrote {merge_recordings(parts, cfg.rrd)}: {len(parts)} episodes (`rerun {cfg.rrd}`)")
+    elif cfg.rrd:
+        print(f"[bench] no episode ran here to record into {cfg.rrd}; `bimanualshift view {out}` writes recorded ones")
     wanted = {(j.task, j.method, j.perturbation, j.seed) for j in jobs}
     episodes = [e for e in read_episodes(log) if _key(e) in wanted]
     rows = bench_rows(episodes, cfg.methods, tasks, cfg.demos, cfg.perturbations)

@@ -81,7 +81,7 @@ ActFn = Callable[[int, KeyframeObservation], np.ndarray]
 
 
 class EpisodeObserver(Protocol):
-    """Watches episodes as they run (``viz.rerun_episode.EpisodeRecorder``): told of each episode, then of each
+    """Watches episodes as they run (``evaluation.viewer.EpisodeRecorder``): told of each episode, then of each
     keyframe's observation and log row."""
 
     def episode(self, task: str, method: str, seed: int, instruction: str) -> str: ...

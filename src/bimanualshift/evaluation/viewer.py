@@ -1,5 +1,5 @@
-"""Episodes in the rerun viewer (`eval --rerun FILE.rrd`, `bimanualshift view`): one recording, a ``keyframe``
-timeline, an entity tree per episode (``TASK/METHOD/seed_S``) holding
+"""Episodes in the rerun viewer (`eval --rrd FILE.rrd`, `bench --rrd FILE.rrd`, `bimanualshift view`): one
+recording, a ``keyframe`` timeline, an entity tree per episode (``TASK/METHOD/seed_S``) holding
 
 - each camera's RGB and depth, posed by its extrinsics and intrinsics (``cameras/NAME``);
 - the scene's points, and per arm the points its arm-conditioned projection keeps and removes (``arms/ARM/kept``,
@@ -42,12 +42,14 @@ def episode_path(task: str, method: str, seed: int) -> str:
 class EpisodeRecorder:
     """Writes episodes into one ``.rrd`` file as they run (``keyframe``) and closes it (``close``)."""
 
-    def __init__(self, path: str | Path, points_per_camera: int = POINTS_PER_CAMERA, projection: bool = True) -> None:
+    def __init__(self, path: str | Path, points_per_camera: int = POINTS_PER_CAMERA, projection: bool = True,
+                 recording_id: str | None = None) -> None:
+        """``recording_id``: files written apart (the benchmark's workers) that merge into one recording."""
         rr = _rerun()
         self.rr = rr
         self.path = Path(path)
         self.path.parent.mkdir(parents=True, exist_ok=True)
-        self.rec = rr.RecordingStream("bimanualshift")
+        self.rec = rr.RecordingStream("bimanualshift", recording_id=recording_id)
         self.rec.save(str(self.path))
         self.points_per_camera = points_per_camera
         self.projection = None
@@ -202,3 +204,21 @@ def record_logged(entry: dict[str, Any], recorder: EpisodeRecorder, render: bool
     finally:
         env.close()
     return root
+
+
+def merge_recordings(parts: list[Path], out: str | Path) -> Path:
+    """One ``.rrd`` of ``parts`` (rerun's own `rerun rrd merge`); parts written with one recording id become one
+    recording."""
+    import shutil
+    import subprocess
+    import sys
+
+    from bimanualshift.utils.io import atomic_writer
+
+    binary = shutil.which("rerun") or str(Path(sys.executable).with_name("rerun"))
+    out = Path(out)
+    with atomic_writer(out) as tmp, open(tmp, "wb") as sink:
+        done = subprocess.run([binary, "rrd", "merge", *map(str, parts)], stdout=sink, stderr=subprocess.PIPE)
+        if done.returncode != 0:
+            raise RuntimeError(f"`rerun rrd merge` failed on {len(parts)} parts: {done.stderr.decode()[-500:]}")
+    return out

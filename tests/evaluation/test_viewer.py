@@ -11,9 +11,9 @@ import pytest
 
 from bimanualshift.cli import main
 from bimanualshift.data.frames import scene_of_env
+from bimanualshift.evaluation.viewer import EpisodeRecorder, read_recording
 from bimanualshift.rollout.loop import rollout
 from bimanualshift.sim.env import ManipulationEnv
-from bimanualshift.viz.rerun_episode import EpisodeRecorder, read_recording
 
 
 class StandStill:
@@ -87,3 +87,13 @@ def test_view_writes_the_first_failed_logged_episode(tmp_path: Path) -> None:
         main(["view", str(tmp_path / "bench"), "--task", "lift_ball", "--render", "false"])
     with pytest.raises(SystemExit, match="no keyframes.jsonl there"):
         main(["view", str(tmp_path / "bench" / "missing.jsonl")])
+
+
+@pytest.mark.slow
+def test_eval_records_its_episodes(tmp_path: Path) -> None:
+    out = tmp_path / "eval.rrd"
+    main(["eval", "--method", "no_residual", "--prior", "peract_suite", "--task", "push_two_buttons", "--episodes",
+          "1", "--max-keyframes", "1", "--rrd", str(out)])
+    seen = read_recording(out)
+    assert seen["keyframes"] == [0]
+    assert seen["points"]["/push_two_buttons/no_residual/seed_200000/arms/right/prior"] == [1]
