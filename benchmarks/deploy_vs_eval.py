@@ -25,7 +25,7 @@ from bimanualshift.deploy.served_policy import load_served_policy
 from bimanualshift.evaluation.report import invoked_command, write_result
 from bimanualshift.rollout.loop import episode_budget, rollout
 from bimanualshift.sim.env import ManipulationEnv
-from bimanualshift.sim.task import resolve_task_names
+from bimanualshift.sim.task_registry import resolve_task_names
 from bimanualshift.utils.pipes import quiet_on_closed_pipe
 
 

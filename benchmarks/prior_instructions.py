@@ -29,7 +29,7 @@ from bimanualshift.evaluation.report import invoked_command, write_result
 from bimanualshift.methods.prior_step import FrozenPriorStep
 from bimanualshift.perception.arm_samples import ArmSamples, build_arm_samples
 from bimanualshift.priors import UnimanualPrior
-from bimanualshift.sim.task import resolve_task_names
+from bimanualshift.sim.task_registry import resolve_task_names
 from bimanualshift.training.prior_instruction import proposal_errors, suite_instructions
 from bimanualshift.utils.pipes import quiet_on_closed_pipe
 

@@ -24,7 +24,7 @@ from bimanualshift.geometry.voxels import VoxelGrid
 from bimanualshift.perception.arm_samples import build_arm_samples
 from bimanualshift.perception.observation import ArmObservationBuilder
 from bimanualshift.priors import UnimanualPrior
-from bimanualshift.sim.task import resolve_task_names
+from bimanualshift.sim.task_registry import resolve_task_names
 from bimanualshift.training.keyframe_errors import keyframe_errors
 from bimanualshift.training.pretrain import PriorBatches
 from bimanualshift.utils.pipes import quiet_on_closed_pipe

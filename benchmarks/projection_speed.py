@@ -30,7 +30,7 @@ from bimanualshift.perception.observation import DEFAULT_ARM_BOUNDS, ArmObservat
 from bimanualshift.perception.projection import ArmProjection
 from bimanualshift.perception.segmenters import make_segmenter
 from bimanualshift.sim.env import ManipulationEnv
-from bimanualshift.sim.task import task_names
+from bimanualshift.sim.task_registry import task_names
 from bimanualshift.utils.pipes import quiet_on_closed_pipe
 
 

@@ -34,7 +34,7 @@ from bimanualshift.data.seeds import split_seeds
 from bimanualshift.evaluation.report import git_commit, machine
 from bimanualshift.sim.arm_control import SUBSTEPS
 from bimanualshift.sim.env import ManipulationEnv
-from bimanualshift.sim.task import resolve_task_names
+from bimanualshift.sim.task_registry import resolve_task_names
 from bimanualshift.utils.io import atomic_write_json
 from bimanualshift.utils.pipes import quiet_on_closed_pipe
 

@@ -71,7 +71,8 @@ def test_experts_run_under_each_perturbation_asked_for(tmp_path) -> None:  # noq
 
 def test_task_groups_resolve_to_registered_tasks() -> None:
     from bimanualshift.cli.common import resolve_tasks
-    from bimanualshift.sim.task import TASKS, task_names
+    from bimanualshift.sim.task import TASKS
+    from bimanualshift.sim.task_registry import task_names
 
     assert resolve_tasks(["bimanual"]) == task_names(bimanual=True, robot="panda")
     assert resolve_tasks(["unimanual", "lift_ball"]) == [*task_names(bimanual=False, robot="panda"), "lift_ball"]

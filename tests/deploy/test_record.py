@@ -14,7 +14,7 @@ from bimanualshift.deploy.record import record
 from bimanualshift.deploy.sim_robot import MujocoRobot
 from bimanualshift.deploy.teleop import KeyboardTeleop, ScriptedTeleop
 from bimanualshift.sim.keyframes import discover_keyframes
-from bimanualshift.sim.task import task_class, task_names
+from bimanualshift.sim.task_registry import task_class, task_names
 
 pytestmark = pytest.mark.slow
 

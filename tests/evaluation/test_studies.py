@@ -11,7 +11,7 @@ from bimanualshift.evaluation.studies import STUDIES, combined_rows, study_plan,
 from bimanualshift.evaluation.tables import bench_table
 from bimanualshift.registry import METHODS
 from bimanualshift.sim.perturbations import PRESETS
-from bimanualshift.sim.task import resolve_task_names
+from bimanualshift.sim.task_registry import resolve_task_names
 
 
 @pytest.mark.parametrize("name", STUDIES)
@@ -258,7 +258,7 @@ def test_the_whole_study_keeps_every_planned_task_and_method_and_adds_a_method_t
 
 
 def test_the_realworld_studies_follow_the_papers_real_platform() -> None:
-    from bimanualshift.sim.task import task_class
+    from bimanualshift.sim.task_registry import task_class
 
     table2 = study_runs("realworld")
     assert [cfg.prior for _, cfg in table2] == ["peract_ur5e_v2", "dp_ur5e"]

@@ -9,7 +9,7 @@ import pytest
 from bimanualshift.data.seeds import split_seeds
 from bimanualshift.sim.coverage import SKILL_PAIRS, arm_frame_goal_poses, coverage, covered, single_arm_tasks
 from bimanualshift.sim.layout import BIMANUAL_ARM_Y
-from bimanualshift.sim.task import task_groups, task_names
+from bimanualshift.sim.task_registry import task_groups, task_names
 
 BIMANUAL_SEEDS = split_seeds("test", 100)  # where the bimanual tasks are evaluated
 SINGLE_ARM_SEEDS = split_seeds("train", 600)  # where the pretraining demonstrations come from

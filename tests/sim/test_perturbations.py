@@ -8,7 +8,7 @@ import pytest
 from bimanualshift.core.colours import TRAIN_COLOURS, UNSEEN_COLOURS
 from bimanualshift.sim.env import ManipulationEnv
 from bimanualshift.sim.perturbations import PRESETS, Perturbations, preset
-from bimanualshift.sim.task import task_names
+from bimanualshift.sim.task_registry import task_names
 
 TASK, SEED = "push_two_buttons", 3
 

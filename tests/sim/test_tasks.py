@@ -9,7 +9,8 @@ import pytest
 
 from bimanualshift.core.goal_nouns import extract_goal_nouns, split_prompt
 from bimanualshift.sim.env import InvalidActionError, ManipulationEnv
-from bimanualshift.sim.task import TASKS, SimHandle, Task, register_task, task_names
+from bimanualshift.sim.task import TASKS, SimHandle, Task, register_task
+from bimanualshift.sim.task_registry import task_names
 
 # Every task built for a robot, and two of the Panda tasks' UR5e variants: each variant's expert is checked on 100
 # seeds in results/experts_ur5e.json, and these tests cover what the variant changes (the robot) on both specs.

@@ -45,7 +45,8 @@ def test_a_user_task_and_prior_work_in_collect_pretrain_and_worker_processes(
 
 def test_entry_points_register_an_installed_package_task(tmp_path: Path, clean_plugin_env: None,
                                                          monkeypatch: pytest.MonkeyPatch) -> None:
-    from bimanualshift.sim.task import TASKS, task_names
+    from bimanualshift.sim.task import TASKS
+    from bimanualshift.sim.task_registry import task_names
 
     site = tmp_path / "site"
     (site / "my_tasks_pkg").mkdir(parents=True)

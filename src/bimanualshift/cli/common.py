@@ -9,7 +9,7 @@ import sys
 def resolve_tasks(requested: list[str]) -> list[str]:
     """Task names from --task: registered names or groups (all, bimanual, unimanual, realworld, ...; a clear error
     otherwise)."""
-    from bimanualshift.sim.task import resolve_task_names
+    from bimanualshift.sim.task_registry import resolve_task_names
 
     return resolve_task_names(requested)
 

@@ -17,7 +17,8 @@ class TasksArgs:
 
 
 def tasks(args: TasksArgs) -> None:
-    from bimanualshift.sim.task import TASKS, task_names
+    from bimanualshift.sim.task import TASKS
+    from bimanualshift.sim.task_registry import task_names
 
     for name in task_names():
         cls = TASKS[name]

@@ -31,7 +31,7 @@ from bimanualshift.deploy.calibration import (
 from bimanualshift.deploy.robot import Calibration, pose_matrix
 from bimanualshift.sim.cameras import CameraRig
 from bimanualshift.sim.env import ManipulationEnv
-from bimanualshift.sim.task import make_task
+from bimanualshift.sim.task_registry import make_task
 
 MARKER_ID = 7
 MIN_PAIRS = 8  # views of one arm's marker a camera needs before its hand-eye solve starts the joint fit

@@ -352,7 +352,7 @@ def _all_recorded(done: set[tuple[str, str, str, int]], method: str, tasks: list
 
 def recorded_counts(cfg: BenchConfig) -> dict[tuple[str, str], tuple[int, int]]:
     """Per (task, method) of the run: its rollouts (perturbation, test seed) in ``episodes.jsonl`` and planned."""
-    from bimanualshift.sim.task import resolve_task_names
+    from bimanualshift.sim.task_registry import resolve_task_names
 
     done = {_key(e) for e in read_episodes(Path(cfg.out) / "episodes.jsonl")}
     seeds = bench_seeds(cfg)["test"]
@@ -377,7 +377,7 @@ def run_bench(cfg: BenchConfig, command: str | None = None, started: float | Non
     from bimanualshift.data.collect import collect
     from bimanualshift.evaluation.report import write_result
     from bimanualshift.evaluation.tables import print_success_table
-    from bimanualshift.sim.task import resolve_task_names, task_names
+    from bimanualshift.sim.task_registry import resolve_task_names, task_names
 
     if cfg.executor not in EXECUTORS:  # before any training, not after it
         raise ValueError(f"--executor {cfg.executor!r} is not one of {', '.join(EXECUTORS)}")

@@ -98,7 +98,7 @@ def inference_ms(prior: str, task: str, seed: int, calls: int = 20, threads: int
 
 def prior_rows(priors: list[str], episodes: list[PriorEpisode], tasks: list[str], seed: int) -> list[dict]:
     from bimanualshift.priors.base import resolve_prior_path
-    from bimanualshift.sim.task import task_class
+    from bimanualshift.sim.task_registry import task_class
 
     rows = []
     for prior in priors:

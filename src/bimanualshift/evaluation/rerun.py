@@ -22,7 +22,7 @@ from pathlib import Path
 from typing import Any
 
 from bimanualshift.registry import METHODS, REFINE_FOLDER, get_method
-from bimanualshift.sim.task import task_names
+from bimanualshift.sim.task_registry import task_names
 from bimanualshift.utils.io import atomic_write_json, atomic_writer
 from bimanualshift.utils.jsonl import read_records
 

@@ -22,7 +22,7 @@ from bimanualshift.evaluation.tables import bench_table, stage_table, targets_ta
 from bimanualshift.evaluation.targets import paired_with_full, study_targets
 from bimanualshift.registry import methods_with_role
 from bimanualshift.sim.perturbations import PRESETS
-from bimanualshift.sim.task import resolve_task_names, task_groups
+from bimanualshift.sim.task_registry import resolve_task_names, task_groups
 from bimanualshift.utils.io import atomic_write_text
 
 # Table I's rows: the full method, every baseline, every ablation and the frozen prior on its own (the registry

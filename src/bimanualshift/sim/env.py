@@ -25,16 +25,8 @@ from bimanualshift.sim.perturb_scene import apply_to_model, mirror_bodies
 from bimanualshift.sim.perturbations import Perturbations
 from bimanualshift.sim.scene import RobosuiteScene
 from bimanualshift.sim.segmentation import SceneInstances
-from bimanualshift.sim.task import (
-    ACTION_DIM,
-    ROBOT_SEPARATOR,
-    ArmAction,
-    Keyframe,
-    SimHandle,
-    Task,
-    make_task,
-    task_class,
-)
+from bimanualshift.sim.task import ACTION_DIM, ROBOT_SEPARATOR, ArmAction, Keyframe, SimHandle, Task
+from bimanualshift.sim.task_registry import make_task, task_class
 
 PROPRIO_DIM = 8
 

@@ -24,7 +24,7 @@ from bimanualshift.perception.observation import ArmObservationBuilder
 from bimanualshift.priors import UnimanualPrior
 from bimanualshift.priors.base import PRIORS, prior_type, resolve_prior_path
 from bimanualshift.priors.base import build_prior as build_prior_network
-from bimanualshift.sim.task import resolve_task_names, task_names
+from bimanualshift.sim.task_registry import resolve_task_names, task_names
 from bimanualshift.training.augment import (
     Se3Augmentation,
     sample_motion,

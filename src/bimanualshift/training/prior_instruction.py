@@ -51,7 +51,7 @@ def suite_instructions(prior: str) -> list[str]:
     """One instruction per task the prior was pretrained on (its config's ``pretrain_tasks``), as that task's
     first scene phrases it; empty for a prior that does not record its tasks or names one this version lacks."""
     from bimanualshift.sim.env import ManipulationEnv
-    from bimanualshift.sim.task import task_names
+    from bimanualshift.sim.task_registry import task_names
 
     recorded = read_json_file(resolve_prior_path(prior) / "config.json", "prior's config").get("pretrain_tasks")
     known = set(task_names())
