@@ -18,6 +18,7 @@ from bimanualshift.methods.bimanualshift import checkpoint_prior
 from bimanualshift.priors.base import UnimanualPrior, resolve_prior_path
 from bimanualshift.residual.checkpoint import load_residual_checkpoint, read_residual_config
 from bimanualshift.utils.config_files import read_json_file
+from bimanualshift.utils.pipes import quiet_on_closed_pipe
 
 
 def trainable_parameters(best: Path) -> int:
@@ -47,4 +48,5 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    with quiet_on_closed_pipe():
+        main()

@@ -21,7 +21,7 @@ from bimanualshift.methods.bimanualshift import MEMORY_FILE, load_bimanualshift,
 from bimanualshift.priors import PRIORS, UnimanualPrior
 from bimanualshift.residual.manager import ResidualConfig, ResidualPolicy
 from bimanualshift.residual.skills import SkillBasis
-from tests.utils.test_hub import populate_cache
+from tests.utils.test_hub_refs import populate_cache
 
 
 @pytest.fixture

@@ -376,9 +376,9 @@ def refine(cfg: RefineConfig, text_encoder: TextEncoder | None = None) -> Path:
             reset_output_scale(residual)
             gate = {"output_gate": choose_output_scale(residual, val.inputs, val.translation, val.rotation)}
             logger.scalars(cfg.steps, gate)
-        best = read_json_file(out / "best" / "config.json")
-        save_residual(out / "best", residual, {**{k: v for k, v in best.items() if k not in ("type", "residual")},
-                                               "output_scale": gate["output_gate"]}, memory)
+            best = read_json_file(out / "best" / "config.json")
+            save_residual(out / "best", residual, {**{k: v for k, v in best.items() if k not in ("type", "residual")},
+                                                   "output_scale": gate["output_gate"]}, memory)
     summary = {
         **result, "wall_time_s": round(time.time() - started, 1), "scenes": len(records),
         "policy_successes": sum(r["policy_success"] for r in records),

@@ -254,9 +254,9 @@ def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Pat
             gate = {"output_gate": {**choose_output_scale(residual, val.inputs, val.translation, val.rotation),
                                     "validation_translation_error_ungated": ungated}}
             logger.scalars(optim.steps, gate)  # the gate's choice: the scale kept per output, and its errors
-        best = json.loads((out / "best" / "config.json").read_text())
-        meta = {k: v for k, v in best.items() if k not in ("type", "residual")}
-        save_residual(out / "best", residual, {**meta, "output_scale": gate["output_gate"]}, memory)
+            best = json.loads((out / "best" / "config.json").read_text())
+            meta = {k: v for k, v in best.items() if k not in ("type", "residual")}
+            save_residual(out / "best", residual, {**meta, "output_scale": gate["output_gate"]}, memory)
     atomic_write_json(out / "summary.json", {**result, "wall_time_s": round(time.time() - started, 1),
                                              "train_samples": len(train.inputs),
                                              "validation_translation_error": translation_report(residual, val),
