@@ -32,12 +32,13 @@ def push(args: PushArgs) -> None:
     from bimanualshift.evaluation.hub import push as upload
     from bimanualshift.evaluation.hub import stage, upload_plan
     from bimanualshift.priors.base import resolve_prior_path
+    from bimanualshift.utils.hub import as_hub_ref
 
     source = Path(args.path)
     if not source.is_dir():
         source = resolve_prior_path(args.path)  # a shipped prior by name; a clear error for anything else
     with tempfile.TemporaryDirectory(prefix="bimanualshift-push-") as tmp:
-        repo_id = args.repo_id.removeprefix("hf://").removeprefix("datasets/")
+        repo_id = as_hub_ref(args.repo_id).repo_id
         staged = stage(source, args.stage or Path(tmp) / "repo", args.results or None, args.method, repo_id)
         plan = upload_plan(staged)
         total = sum(f["bytes"] for f in plan) / 2**20

@@ -5,7 +5,6 @@ huggingface_hub. Only safetensors, JSON, parquet, video and HDF5 files are stage
 
 from __future__ import annotations
 
-import json
 import shutil
 from dataclasses import dataclass
 from pathlib import Path
@@ -16,10 +15,9 @@ from bimanualshift.data.episode import EPISODE_GLOB
 from bimanualshift.methods.bimanualshift import BUNDLED_PRIOR, MEMORY_FILE
 from bimanualshift.priors.base import PRIORS, resolve_prior_path
 from bimanualshift.utils.config_files import read_json_file
-from bimanualshift.utils.hub import HubRef, is_hub_ref, offline, parse_hub_ref, snapshot
+from bimanualshift.utils.hub import HubRef, as_hub_ref, is_hub_ref, offline, snapshot
 from bimanualshift.utils.io import atomic_write_json, atomic_write_text
 
-KINDS = ("prior", "checkpoint", "dataset")
 # Files a pickle loader would run; staged folders refuse them by name (safetensors and JSON are what load here).
 PICKLE_SUFFIXES = {".pkl", ".pickle", ".pt", ".pth", ".ckpt", ".bin", ".joblib", ".npz"}
 MODEL_FILES = ("config.json", "model.safetensors")
@@ -117,11 +115,9 @@ def _bundle_prior(config: dict[str, Any], out: Path) -> str:
     return prior
 
 
-def _front_matter(tags: list[str], datasets: list[str] | None = None) -> str:
+def _front_matter(tags: list[str]) -> str:
     lines = ["---", "library_name: bimanualshift", "license: apache-2.0", "pipeline_tag: robotics", "tags:"]
     lines += [f"- {t}" for t in ["robotics", "bimanualshift", *tags]]
-    if datasets:
-        lines += ["datasets:"] + [f"- {d}" for d in datasets]
     return "\n".join(lines + ["---", ""])
 
 
@@ -175,7 +171,7 @@ def prior_card(folder: Path, results: str | Path | None, method: str, repo_id: s
 
 def checkpoint_card(config: dict[str, Any], out: Path, prior: str, results: str | Path | None, method: str,
                     repo_id: str) -> str:
-    train = _as_dict(config.get("train_config"))
+    train = config.get("train_config") or {}  # the run's TrainConfig, saved with the checkpoint
     bank = "yes" if (out / MEMORY_FILE).is_file() else "no (trained without retrieval)"
     where = "bundled in `prior/`" if config.get("prior") == BUNDLED_PRIOR else "loaded from the hub"
     rows = [("task", config.get("task")), ("bimanual demos", config.get("demos")),
@@ -186,7 +182,7 @@ def checkpoint_card(config: dict[str, Any], out: Path, prior: str, results: str 
     reproduce = ("`bimanualshift train --config train_config.json` (the run's own config, in this repository) "
                  "reproduces the residual from the same demos." if (out / "train_config.json").is_file() else
                  "The run's train_config.json was not beside the checkpoint, so the card names no training command.")
-    data = _as_dict(train.get("dataset"))
+    data = train.get("dataset") or {}
     if data.get("data"):
         reproduce += (f" It read {data.get('demos')} demos from `{data['data']}` (validation: "
                       f"`{data.get('validation_data')}`); `bimanualshift collect --task {config.get('task')}` "
@@ -224,17 +220,6 @@ def _usage(flag: str, repo_id: str) -> str:
             f"that takes it; `bimanualshift pull {repo_id}` downloads it into the shared Hugging Face cache first.\n")
 
 
-def _as_dict(value: Any) -> dict[str, Any]:
-    if isinstance(value, dict):
-        return value
-    if isinstance(value, str) and value.startswith("{"):
-        try:
-            return json.loads(value)
-        except json.JSONDecodeError:
-            return {}
-    return {}
-
-
 def upload_plan(staged: Staged) -> list[dict[str, Any]]:
     """What an upload would send, file by file: the client's own commit operations (size and sha256), computed
     without a network."""
@@ -250,7 +235,7 @@ def upload_plan(staged: Staged) -> list[dict[str, Any]]:
 def push(staged: Staged, repo_id: str, private: bool = False, revision: str | None = None, message: str = "",
          tag: str = "") -> str:
     """Upload ``staged`` to ``repo_id`` (created if missing); returns the commit's URL."""
-    ref = parse_hub_ref(repo_id if is_hub_ref(repo_id) else f"hf://{repo_id}", staged.repo_type)
+    ref = as_hub_ref(repo_id, staged.repo_type)
     if offline():
         raise ConnectionError("HF_HUB_OFFLINE=1 is set, so nothing can be uploaded: unset it (`make` sets it for "
                               "the tests) or use --dry-run to see what would be sent")
@@ -278,8 +263,7 @@ def push(staged: Staged, repo_id: str, private: bool = False, revision: str | No
 def pull(text: str, repo_type: str = "") -> tuple[Path, str, HubRef]:
     """Download ``ORG/NAME[@REV]`` (or an ``hf://`` reference) into the shared cache; returns (its local folder,
     its kind, the reference), after checking that what arrived loads."""
-    text = text if is_hub_ref(text) else f"hf://{'datasets/' if repo_type == 'dataset' else ''}{text}"
-    ref = parse_hub_ref(text, repo_type or "model")
+    ref = as_hub_ref(text, repo_type or "model")
     folder = snapshot(ref.repo) / ref.path
     kind = detect_kind(folder)
     if kind == "prior":

@@ -69,6 +69,11 @@ def latest_checkpoint(run_dir: str | Path) -> Path | None:
     return found[-1] if found else None
 
 
+def checkpoint_step(path: str | Path) -> int:
+    """The step a checkpoint folder (``save_checkpoint``'s ``step_0000123``) was saved at."""
+    return int(Path(path).name.removeprefix("step_"))
+
+
 def load_checkpoint(path: str | Path, model: nn.Module, optimizer: torch.optim.Optimizer | None = None
                     ) -> dict[str, Any]:
     path = Path(path)

@@ -99,10 +99,10 @@ def make_logger(kind: str, run_dir: str | Path, start_step: int = 0,
 @contextmanager
 def open_logger(kind: str, run_dir: str | Path, config: dict[str, Any] | None = None) -> Iterator[MetricLogger]:
     """``make_logger`` for the length of a ``with`` block, resuming at the run's newest checkpoint."""
-    from bimanualshift.training.checkpoint import latest_checkpoint
+    from bimanualshift.training.checkpoint import checkpoint_step, latest_checkpoint
 
-    latest = latest_checkpoint(Path(run_dir))  # <run>/checkpoints/step_000123
-    logger = make_logger(kind, run_dir, int(latest.name.rpartition("_")[2]) if latest else 0, config)
+    latest = latest_checkpoint(run_dir)
+    logger = make_logger(kind, run_dir, checkpoint_step(latest) if latest else 0, config)
     try:
         yield logger
     finally:

@@ -62,6 +62,11 @@ def parse_hub_ref(text: str, repo_type: str = "model") -> HubRef:
     return HubRef(f"{org}/{name}", repo_type, revision or None, "/".join(parts[2:]))
 
 
+def as_hub_ref(text: str, repo_type: str = "model") -> HubRef:
+    """``parse_hub_ref`` of an ``hf://`` reference, or of a bare ``ORG/NAME[@REV]`` (what `push` and `pull` take)."""
+    return parse_hub_ref(text if is_hub_ref(text) else f"{SCHEME}{text}", repo_type)
+
+
 def cache_dir() -> Path:
     """The shared Hugging Face cache (``HF_HUB_CACHE``, else ``HF_HOME/hub``), read when called."""
     if os.environ.get("HF_HUB_CACHE"):
