@@ -108,7 +108,7 @@ class EpisodeRecorder:
             self.rec.log(f"{root}/replay/reached_gap_cm/{i}", self.rr.Scalars(float(gap)))
 
     def _cameras(self, root: str, obs: KeyframeObservation) -> None:
-        from bimanualshift.perception.observation import world_point_cloud
+        from bimanualshift.perception.observation import fixed_subsample, world_point_cloud
 
         rr, rec = self.rr, self.rec
         points, colours = world_point_cloud(obs)
@@ -124,9 +124,7 @@ class EpisodeRecorder:
             rec.log(f"{path}/rgb", rr.Image(obs.rgb[c]))
             rec.log(f"{path}/depth", rr.DepthImage(np.nan_to_num(obs.depth[c]), meter=1.0))
             valid = np.flatnonzero(np.isfinite(obs.depth[c]).ravel() & (obs.depth[c].ravel() > 0))
-            if len(valid) > self.points_per_camera:  # a subsample fixed by the pixel count (no global RNG)
-                valid = np.sort(np.random.default_rng(len(valid)).choice(valid, self.points_per_camera, False))
-            chosen.append((c, valid))
+            chosen.append((c, fixed_subsample(valid, self.points_per_camera)))
         xyz = np.concatenate([points[c].reshape(-1, 3)[i] for c, i in chosen])
         rgb = np.concatenate([colours[c].reshape(-1, 3)[i] for c, i in chosen])
         rec.log(f"{root}/scene", rr.Points3D(xyz, colors=rgb, radii=0.003))

@@ -53,14 +53,20 @@ def proprio_in_arm_frame(proprio_world: np.ndarray, frame: ArmFrame) -> np.ndarr
     return np.r_[pos, quat, proprio_world[7]].astype(np.float32)
 
 
+def fixed_subsample(indices: np.ndarray, limit: int) -> np.ndarray:
+    """At most ``limit`` of ``indices``, in their order: above it, a subsample fixed by their count alone (no global
+    RNG), so the same pixels give the same points in every process."""
+    if len(indices) <= limit:
+        return indices
+    return np.sort(np.random.default_rng(len(indices)).choice(indices, limit, replace=False))
+
+
 def arm_point_cloud(world: tuple[np.ndarray, np.ndarray], keep: np.ndarray, frame: ArmFrame, limit: int
                     ) -> np.ndarray:
     """(P <= limit, 6) arm-frame xyz and rgb of the kept pixels; above ``limit``, a subsample fixed by the pixel
     count alone (no global RNG), in pixel order."""
     points, colours = world
-    chosen = np.flatnonzero(keep.ravel())
-    if len(chosen) > limit:
-        chosen = np.sort(np.random.default_rng(len(chosen)).choice(chosen, limit, replace=False))
+    chosen = fixed_subsample(np.flatnonzero(keep.ravel()), limit)
     xyz = frame.points_to_arm(points.reshape(-1, 3)[chosen])
     return np.concatenate([xyz, colours.reshape(-1, 3)[chosen]], axis=1).astype(np.float32)
 
