@@ -173,3 +173,27 @@ def test_report_regenerates_every_document_holding_a_results_block(tmp_path: Pat
     (tmp_path / "docs" / "b.md").write_text("no block here\n")
     assert results_documents(tmp_path) == [str(tmp_path / "README.md"), str(tmp_path / "docs" / "a.md")]
     assert str(Path("docs") / "residual.md") in results_documents()  # the project's own docs are found
+
+
+def test_a_headline_view_leaves_the_stage_tables_out(tmp_path: Path) -> None:
+    import pytest
+
+    from bimanualshift.evaluation.tables import table_for
+
+    stages = [{"stage": "door open", "success": 1.0}, {"stage": "tray out", "success": 0.5}]
+    rows = [{"task": "take_tray_out_of_oven", "method": "bimanualshift", "success": 0.5, "episodes": 10,
+             "ci95": [0.2, 0.8], "stages": stages}]
+    result = {"command": "bimanualshift study table1", "commit": "abc123def4567890", "created": "2026",
+              "machine": "cpu", "seeds": {}, "wall_time_s": 60.0, "rows": rows, "notes": "n", "bench": True,
+              "study": "table1"}
+    (tmp_path / "t").mkdir()
+    (tmp_path / "t" / "summary.json").write_text(json.dumps(result))
+    readme = tmp_path / "README.md"
+    readme.write_text("<!-- results:t -->\n<!-- /results:t -->\n"
+                      "<!-- results:t#headline -->\n<!-- /results:t#headline -->\n")
+    assert render_readme(readme, tmp_path) == ["t", "t#headline"]
+    full, headline = readme.read_text().split("<!-- results:t#headline -->")
+    assert "stage-wise success" in full and "stage-wise success" not in headline
+    assert "| bimanualshift | 50 (20–80) |" in headline and "abc123def456" in headline
+    with pytest.raises(ValueError, match="unknown results-block view 'brief'"):
+        table_for(result, view="brief")

@@ -1,7 +1,9 @@
 """README blocks regenerated from result files: tables spliced in between marker comments.
 
 `bimanualshift report` rewrites every block ``<!-- results:NAME -->`` ... ``<!-- /results:NAME -->`` with
-the table built from ``results/NAME/summary.json`` (or ``results/NAME.json``), so no number is typed.
+the table built from ``results/NAME/summary.json`` (or ``results/NAME.json``), so no number is typed. A name may
+end in a view, ``NAME#headline``: a study's success table and targets without its stage-wise tables, for pages
+that show the headline and link to the rest.
 """
 
 from __future__ import annotations
@@ -14,7 +16,8 @@ from bimanualshift.evaluation.tables import table_for
 from bimanualshift.utils.io import atomic_write_text
 from bimanualshift.utils.jsonl import read_records
 
-BLOCK = re.compile(r"(<!-- results:(?P<name>[\w/.-]+) -->\n)(?P<body>.*?)(<!-- /results:(?P=name) -->)", re.S)
+BLOCK = re.compile(r"(<!-- results:(?P<name>[\w/.-]+(?:#[\w-]+)?) -->\n)(?P<body>.*?)(<!-- /results:(?P=name) -->)",
+                   re.S)
 
 
 def result_file(results_dir: Path, name: str) -> Path:
@@ -25,9 +28,10 @@ def result_file(results_dir: Path, name: str) -> Path:
 
 
 def results_documents(root: str | Path = ".") -> list[str]:
-    """README.md and every docs/*.md under ``root`` holding a results block, the files ``report`` regenerates."""
+    """README.md, every docs/*.md and results/HISTORY.md under ``root`` holding a results block, the files ``report``
+    regenerates (a superseded table stays generated from its result file, which is kept)."""
     root = Path(root)
-    candidates = [root / "README.md", *sorted((root / "docs").glob("*.md"))]
+    candidates = [root / "README.md", *sorted((root / "docs").glob("*.md")), root / "results" / "HISTORY.md"]
     return [str(p) for p in candidates if p.is_file() and BLOCK.search(p.read_text())]
 
 
@@ -38,9 +42,9 @@ def render_readme(readme: str | Path, results_dir: str | Path = "results") -> li
     names: list[str] = []
 
     def replace(match: re.Match[str]) -> str:
-        name = match.group("name")
-        names.append(name)
-        table = table_for(json.loads(result_file(results_dir, name).read_text()))
+        name, _, view = match.group("name").partition("#")
+        names.append(match.group("name"))
+        table = table_for(json.loads(result_file(results_dir, name).read_text()), view=view)
         return match.group(1) + table + match.group(4)
 
     new = BLOCK.sub(replace, text)

@@ -145,15 +145,23 @@ def sim_profile_table(result: dict[str, Any]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def table_for(result: dict[str, Any]) -> str:
-    """Expert measurements, success rates of methods, or a generic table of whatever the rows hold."""
+VIEWS = ("", "headline")
+
+
+def table_for(result: dict[str, Any], view: str = "") -> str:
+    """Expert measurements, success rates of methods, or a generic table of whatever the rows hold. ``view``
+    "headline" leaves a study's stage-wise tables out (the README shows the success table and its targets)."""
+    if view not in VIEWS:
+        raise ValueError(f"unknown results-block view {view!r}: use one of {', '.join(v for v in VIEWS if v)} "
+                         "(results:NAME#VIEW), or none")
     first = result["rows"][0] if result["rows"] else {}
     if result.get("bench"):
         from bimanualshift.evaluation.targets import study_targets
 
         # derived from the rows (and the stored paired counts), never stored alone
         targets = study_targets(result.get("study", ""), result["rows"], result.get("paired"))
-        parts = [bench_table(result["rows"]), stage_table(result["rows"]), targets_table(targets)]
+        stages = "" if view == "headline" else stage_table(result["rows"])
+        parts = [bench_table(result["rows"]), stages, targets_table(targets)]
         return "\n".join([*(p for p in parts if p), _footer(result)]) + "\n"
     if "prior" in first and "tasks" in first:
         return priors_table(result)

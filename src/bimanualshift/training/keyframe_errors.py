@@ -1,5 +1,5 @@
 """Teacher-forced keyframe errors of a prior on stored demonstrations: what validation picks checkpoints by and
-what ``benchmarks/prior_keyframe_errors.py`` reports per task."""
+what ``benchmarks/investigations/prior_keyframe_errors.py`` reports per task."""
 
 from __future__ import annotations
 

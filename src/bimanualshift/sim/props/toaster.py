@@ -4,7 +4,8 @@ and the lever's latch.
 The toaster's long axis is its y. The handle sticks out of its +y end, the lever out of its -y end. The toaster
 weighs 100 g, and the lever's spring pushes back harder the further it goes. Pressed on its own, the toaster rocks
 over its lever end, by 12-13 degrees on the scripted press; with a second hand on the handle it tilts 2-3 degrees
-(``benchmarks/toaster_rock.py``). Keeping it steady is the coordination the paper's Toaster Activation asks for.
+(``benchmarks/investigations/toaster_rock.py``). Keeping it steady is the coordination the paper's Toaster
+Activation asks for.
 
 Once the lever passes ``LATCH_AT``, it latches: its joint range then stops it from rising again, and the bread
 turns to toast. ``hold_latch`` applies this each control step, from the flag in the task's episode state, so a

@@ -1,6 +1,6 @@
 """Where should the VoxAct-B-style baseline centre its region? (writes results/voxactb_region.json)
 
-    .venv/bin/python benchmarks/voxactb_region.py --demos 5
+    .venv/bin/python benchmarks/investigations/voxactb_region.py --demos 5
 
 Per bimanual task, the expert's demos on validation seeds; for each rule that turns the goal's back-projected
 pixels at the first keyframe into a centre (their mean, median, or the middle of their 2nd-98th percentile

@@ -1,4 +1,4 @@
-"""benchmarks/sweep_stroke.py measures the brush arm's set-down against the expert's along and across the stroke."""
+"""investigations/sweep_stroke.py measures the brush arm's set-down against the expert's along and across the stroke."""
 
 from __future__ import annotations
 
@@ -10,8 +10,9 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-ROOT = Path(__file__).resolve().parents[2]
-spec = importlib.util.spec_from_file_location("sweep_stroke", ROOT / "benchmarks" / "sweep_stroke.py")
+ROOT = Path(__file__).resolve().parents[3]
+spec = importlib.util.spec_from_file_location("sweep_stroke", ROOT / "benchmarks" / "investigations" /
+                                              "sweep_stroke.py")
 sweep_stroke = importlib.util.module_from_spec(spec)
 spec.loader.exec_module(sweep_stroke)
 

@@ -1,6 +1,7 @@
 """How much of each goal object the cameras see, per keyframe of the demos (writes results/goal_visibility.json)
 
-    .venv/bin/python benchmarks/goal_visibility.py --tasks take_tray_out_of_oven sweep_to_dustpan straighten_rope \
+    .venv/bin/python benchmarks/investigations/goal_visibility.py \
+        --tasks take_tray_out_of_oven sweep_to_dustpan straighten_rope \
         --demos 10
 
 The Manager locates the goal from the pixels the segmenter gives for each goal noun (``perception/goal_geometry.py``).

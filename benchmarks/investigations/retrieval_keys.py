@@ -1,6 +1,7 @@
 """Does the memory's confidence threshold ever decide anything? (writes results/retrieval_keys.json)
 
-    .venv/bin/python benchmarks/retrieval_keys.py --runs runs/residual_space_peract_v2 --method no_refinement \
+    .venv/bin/python benchmarks/investigations/retrieval_keys.py --runs runs/residual_space_peract_v2 \
+        --method no_refinement \
         --results results/residual_space/peract_suite_v2
 
 Two measurements, both from a finished benchmark run (no rollout):

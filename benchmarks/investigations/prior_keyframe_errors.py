@@ -1,7 +1,8 @@
 """Why single-arm success is what it is: each prior's per-keyframe error on the validation demos, per task
 (writes results/prior_keyframe_errors.json).
 
-    .venv/bin/python benchmarks/prior_keyframe_errors.py --prior peract_suite dp_suite --data data/suite_val
+    .venv/bin/python benchmarks/investigations/prior_keyframe_errors.py --prior peract_suite dp_suite \
+        --data data/suite_val
 
 A rollout succeeds only if every keyframe lands close enough, so per-keyframe translation error (and how often it
 stays within 2 / 3 cm) and rotation error (and how often within 15 degrees), teacher-forced on expert

@@ -1,7 +1,7 @@
 """How much single-arm data a prior needs: validation keyframe error against demos per task (writes
 results/data_volume.json).
 
-    .venv/bin/python benchmarks/data_volume.py --prior peract --demos 25 50 100 --steps 3000 \
+    .venv/bin/python benchmarks/investigations/data_volume.py --prior peract --demos 25 50 100 --steps 3000 \
         --data data/suite2 --validation-data data/suite2_val
 
 Each volume pretrains the same network for the same steps on each task's first N demos by seed (so a smaller

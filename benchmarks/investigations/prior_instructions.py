@@ -1,7 +1,7 @@
 """Which instruction brings the frozen prior's proposals closest to the expert's keyframes? (writes
 results/prior_instructions.json)
 
-    .venv/bin/python benchmarks/prior_instructions.py --data data/bench/validation data/bench/train
+    .venv/bin/python benchmarks/investigations/prior_instructions.py --data data/bench/validation data/bench/train
 
 Both arms ask the prior the bimanual instruction, and on take tray out of oven its proposals lie a median 30 cm
 from the expert's keyframes. The prior's own suite holds the two halves of that task as single-arm skills ("open

@@ -2,7 +2,7 @@
 is, and again with the holding arm parked 12 cm above its first keyframe, open, so that the other arm works on an
 unheld toaster. Per run: success, how far the toaster rocked at most (degrees), and whether the lever latched.
 
-    .venv/bin/python benchmarks/toaster_rock.py --episodes 30
+    .venv/bin/python benchmarks/investigations/toaster_rock.py --episodes 30
 
 Validation seeds: the toaster's mass and spring are design choices.
 """

@@ -1,6 +1,7 @@
 """How often the demos' poses come out with the quaternion negated near the gripper-down pose (writes a result file)
 
-    .venv/bin/python benchmarks/quaternion_signs.py --data data/bench/train --tasks lift_ball straighten_rope
+    .venv/bin/python benchmarks/investigations/quaternion_signs.py --data data/bench/train \
+        --tasks lift_ball straighten_rope
 
 Every keyframe's proprioception of both arms, in the arm's frame as the Manager reads it (w >= 0, the environment's
 sign): the share with x < 0, i.e. on the other side of the gripper-down pose (1, 0, 0, 0) than the expert's

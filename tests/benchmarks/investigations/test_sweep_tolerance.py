@@ -1,4 +1,4 @@
-"""benchmarks/sweep_tolerance.py changes only the brush arm's stroke: aside, turned and cut short as asked."""
+"""investigations/sweep_tolerance.py changes only the brush arm's stroke: aside, turned and cut short as asked."""
 
 from __future__ import annotations
 
@@ -11,8 +11,9 @@ from scipy.spatial.transform import Rotation
 
 from bimanualshift.sim.task import ArmAction
 
-ROOT = Path(__file__).resolve().parents[2]
-spec = importlib.util.spec_from_file_location("sweep_tolerance", ROOT / "benchmarks" / "sweep_tolerance.py")
+ROOT = Path(__file__).resolve().parents[3]
+spec = importlib.util.spec_from_file_location("sweep_tolerance", ROOT / "benchmarks" / "investigations" /
+                                              "sweep_tolerance.py")
 sweep_tolerance = importlib.util.module_from_spec(spec)
 spec.loader.exec_module(sweep_tolerance)
 

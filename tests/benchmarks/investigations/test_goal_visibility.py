@@ -1,4 +1,4 @@
-"""benchmarks/goal_visibility.py counts each goal noun's pixels per keyframe of the demos."""
+"""benchmarks/investigations/goal_visibility.py counts each goal noun's pixels per keyframe of the demos."""
 
 from __future__ import annotations
 
@@ -11,8 +11,8 @@ import numpy as np
 
 from bimanualshift.data.episode import read_episode
 
-ROOT = Path(__file__).resolve().parents[2]
-SCRIPT = ROOT / "benchmarks" / "goal_visibility.py"
+ROOT = Path(__file__).resolve().parents[3]
+SCRIPT = ROOT / "benchmarks" / "investigations" / "goal_visibility.py"
 
 
 def test_counts_each_goal_nouns_pixels_per_keyframe(demo_root: Path, tmp_path: Path) -> None:

@@ -1,6 +1,6 @@
 """Residual design choices compared on validation demos (writes results/residual_variants.json).
 
-    .venv/bin/python benchmarks/residual_variants.py --data runs/demo/data/bimanual \
+    .venv/bin/python benchmarks/investigations/residual_variants.py --data runs/demo/data/bimanual \
         --validation-data runs/demo/data/bimanual_val --task push_two_buttons --demos 20
 
 Each variant trains the residual with the default settings plus its own flags (the demos, prior and seed shared)

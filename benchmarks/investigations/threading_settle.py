@@ -1,7 +1,7 @@
 """How the block and the rod settle in the Robotiq's hands in block threading (results/threading_settle.json): the
 offsets its expert's plan carries (``BLOCK_BELOW_SITE``, ``TIP_BELOW_SITE``, ``TIP_ACROSS``, ``TIP_ALONG``).
 
-    .venv/bin/python benchmarks/threading_settle.py --episodes 20
+    .venv/bin/python benchmarks/investigations/threading_settle.py --episodes 20
 
 Per seed the expert's first three keyframes run (grasp, lift, align); then the block's centre is measured against
 the threading hand's site, and the rod's tip against the holding hand's site in the rod's own frame (across it,

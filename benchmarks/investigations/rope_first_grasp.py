@@ -1,6 +1,6 @@
 """Where each method's first grasp lands on the rope (writes results/rope_first_grasp.json)
 
-    .venv/bin/python benchmarks/rope_first_grasp.py --folder results/table1/complex_tasks
+    .venv/bin/python benchmarks/investigations/rope_first_grasp.py --folder results/table1/complex_tasks
 
 Reads a bench folder's per-keyframe log of straighten rope and, for every test episode, rebuilds the scene of
 its seed to measure each arm's first executed action (keyframe 0, the approach above the grasp): its horizontal

@@ -2,7 +2,7 @@
 the loaded networks' parameters (buffers such as input statistics left out; writes a result file): the cost
 column of docs/residual.md's width table.
 
-    .venv/bin/python benchmarks/manager_width_cost.py runs/issue54_width/take_tray_out_of_oven \
+    .venv/bin/python benchmarks/investigations/manager_width_cost.py runs/issue54_width/take_tray_out_of_oven \
         --out results/issue54/width_cost.json
 """
 

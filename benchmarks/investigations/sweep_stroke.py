@@ -1,7 +1,7 @@
 """Where the brush is set down at sweep's stroke start, against the expert, in failures and successes (writes
 results/sweep_stroke.json)
 
-    .venv/bin/python benchmarks/sweep_stroke.py results/table1/complex_tasks
+    .venv/bin/python benchmarks/investigations/sweep_stroke.py results/table1/complex_tasks
 
 The expert sets the brush head down (keyframe 5) just beyond the farthest dirt from the pan's mouth and strokes
 towards the mouth (keyframe 6). Per method and outcome, from a bench folder's per-keyframe log (``keyframes.jsonl``):

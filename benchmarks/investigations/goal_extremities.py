@@ -1,6 +1,7 @@
 """How close the goal geometry's cues lie to each arm's first expert keyframe (writes results/goal_extremities.json)
 
-    .venv/bin/python benchmarks/goal_extremities.py --data data/bench/train --tasks straighten_rope sweep_to_dustpan
+    .venv/bin/python benchmarks/investigations/goal_extremities.py --data data/bench/train \
+        --tasks straighten_rope sweep_to_dustpan
 
 For every demo of each task, both arms: the horizontal distance from the expert's keyframe-0 position to the goal
 box's centroid and to the tip of the arm's own extremity (``perception/goal_geometry.py``), both in the arm's frame

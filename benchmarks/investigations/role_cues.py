@@ -1,6 +1,6 @@
 """Can an arm tell its role from what the Manager reads at the first keyframe? (writes results/role_cues.json)
 
-    .venv/bin/python benchmarks/role_cues.py --task take_tray_out_of_oven --scenes 300
+    .venv/bin/python benchmarks/investigations/role_cues.py --task take_tray_out_of_oven --scenes 300
 
 In take tray out of oven the arm that opens the door and the arm that takes the tray swap with the oven's turn
 (``Task.roles``), and both arms see the same goal objects. For each training scene's first keyframe, both arms:

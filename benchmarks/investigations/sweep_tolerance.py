@@ -1,9 +1,9 @@
 """How far the two arms may stray from the expert's sweep: the scripted expert with the brush's stroke moved aside,
 turned and cut short, and the dustpan's grasp turned (writes results/sweep_tolerance.json)
 
-    .venv/bin/python benchmarks/sweep_tolerance.py --episodes 30 --across-cm 0 2 3 --turn-deg 0 10 20 \
+    .venv/bin/python benchmarks/investigations/sweep_tolerance.py --episodes 30 --across-cm 0 2 3 --turn-deg 0 10 20 \
         --end-short-cm 0 2
-    .venv/bin/python benchmarks/sweep_tolerance.py --episodes 30 --pan-turn-deg 0 20 40 --across-cm 0 2 \
+    .venv/bin/python benchmarks/investigations/sweep_tolerance.py --episodes 30 --pan-turn-deg 0 20 40 --across-cm 0 2 \
         --out results/sweep_tolerance_pan.json
 
 The expert of sweep to dustpan sets the brush head (16 cm wide) down square behind the dirt, on the pan's centre
@@ -13,10 +13,10 @@ together: moved across the stroke (``--across-cm``, half the episodes to each si
 (``--turn-deg``, half each way) and the stroke's end pulled back towards its start (``--end-short-cm``, the end and
 the lift). ``--pan-turn-deg`` turns every keyframe of the other arm, which pinches the dustpan's handle and holds it,
 about the vertical (half each way). Everything else is the expert's. Success per combination says which of the
-errors the keyframe logs show the task tolerates (benchmarks/sweep_stroke.py: BimanualShift's sweep failures set the
-brush down a median 2.1 cm aside, 9 degrees turned and end the stroke 1.6 cm short; ``bimanualshift explain``: its
-dustpan grasp is turned 38 degrees from the expert's in failures against 23 in successes). Validation seeds; no
-rendering.
+errors the keyframe logs show the task tolerates (benchmarks/investigations/sweep_stroke.py: BimanualShift's sweep
+failures set the brush down a median 2.1 cm aside, 9 degrees turned and end the stroke 1.6 cm short;
+``bimanualshift explain``: its dustpan grasp is turned 38 degrees from the expert's in failures against 23 in
+successes). Validation seeds; no rendering.
 """
 
 from __future__ import annotations

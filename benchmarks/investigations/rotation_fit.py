@@ -1,7 +1,7 @@
 """How well a trained residual turns the prior's orientation into the expert's, on its own training demos and on
 the validation demos, per arm and keyframe (writes results/rotation_fit/<task>.json)
 
-    .venv/bin/python benchmarks/rotation_fit.py runs/table1/sweep_to_dustpan/bimanualshift
+    .venv/bin/python benchmarks/investigations/rotation_fit.py runs/table1/sweep_to_dustpan/bimanualshift
 
 Teacher-forced: every keyframe of the demos is given to the frozen prior and the residual as the demo saw it, and
 the angle left between prior + residual and the expert is measured (``validation_rotation_error`` of the training
