@@ -50,8 +50,8 @@ class ResidualConfig:
     # Width of the frozen prior's features at and around its own proposal (``PriorOutput.proposal_features``), the
     # arm-specific visual input of Eq. 6; 0 = not read (checkpoints from before it).
     proposal_dim: int = 0
-    # The action-space residual (docs/residual.md): instead of moving the prior's action continuously (Eq. 4), G
-    # adds logits to the prior's own distributions: its translation log-probabilities on a lattice of
+    # The action-space residual (docs/residual-variants.md): instead of moving the prior's action continuously
+    # (Eq. 4), G adds logits to the prior's own distributions: its translation log-probabilities on a lattice of
     # ``action_window``^3 cells ``action_cell_m`` apart centred on its proposal, and its rotation bins
     # (``rotation_bins`` per Euler axis, the prior's). The final action is the arg-max of the sums.
     action_space: bool = False

@@ -118,7 +118,7 @@ class ResidualModelConfig:
     # does not average two roles' targets in one slot. Needs --phase-slots > 0. Where each arm plays one role in
     # every demo the run keeps the per-arm slots (the same residual). Chosen on validation seeds (docs/residual.md).
     roles: bool = True
-    # Width of the Manager's two hidden layers (the residual's size: docs/residual.md, "A lighter residual").
+    # Width of the Manager's two hidden layers (the residual's size: docs/residual-variants.md, "The Manager's width").
     hidden: int = 256
     normalise_inputs: bool = True  # standardise the Manager's inputs with the training inputs' statistics
     # The Manager's trunk reads the frozen prior's pooled features too; off: they let it memorise the demos.
@@ -146,8 +146,8 @@ class ResidualModelConfig:
     # What the rotation residual is trained towards: "expert" (the demos' orientation) or "nearest_twin" (the
     # expert's or its twin half a turn about the gripper's approach axis, the same parallel grasp, whichever is
     # nearer the prior's proposal: the demos' wrist yaw is wrapped into a half turn, so a grasp at the wrap's edge
-    # comes as either twin at random, and the residual averages the two turns; docs/residual.md), or "slot_twin"
-    # (the twin nearer the training demos' mean grasp at the same arm and keyframe slot).
+    # comes as either twin at random, and the residual averages the two turns; docs/residual-variants.md), or
+    # "slot_twin" (the twin nearer the training demos' mean grasp at the same arm and keyframe slot).
     rotation_target: str = "expert"
     # What the frozen prior is asked: "" the episode's own instruction (the paper), "auto" the instruction of the
     # prior's pretraining suite whose proposals lie closest to the training demos' keyframes when it clearly beats
