@@ -10,7 +10,8 @@ import numpy as np
 import pyarrow.parquet as pq
 import pytest
 
-from bimanualshift.data.episode import list_episodes, read_episode
+from bimanualshift.data.collect import collect
+from bimanualshift.data.episode import list_episodes, read_episode, write_episode
 from bimanualshift.data.kinematics import KinematicsModel
 from bimanualshift.data.lerobot_format import LeRobotFormatError, export_lerobot, import_lerobot
 
@@ -22,6 +23,16 @@ def exported(demo_root: Path, tmp_path_factory: pytest.TempPathFactory) -> tuple
     episodes = [read_episode(p) for p in list_episodes(demo_root / "bimanual", "push_two_buttons")]
     out = export_lerobot(episodes, tmp_path_factory.mktemp("lerobot") / "dataset")
     return episodes, out
+
+
+@pytest.fixture(scope="module")
+def exported_twin(tmp_path_factory: pytest.TempPathFactory) -> tuple[list, Path]:
+    """Two demos of a real-world task on the UR5e twin: one 256x256 front camera, UR5e arms, Robotiq grippers."""
+    root = tmp_path_factory.mktemp("twin_demos")
+    collect(["vegetable_sorting"], [0, 1], root)
+    episodes = [read_episode(p) for p in list_episodes(root, "vegetable_sorting")]
+    assert len(episodes) == 2, "the twin's expert failed a vegetable_sorting demo"
+    return episodes, export_lerobot(episodes, root / "dataset")
 
 
 def test_layout_follows_lerobot_v3(exported: tuple[list, Path]) -> None:
@@ -47,8 +58,9 @@ def test_layout_follows_lerobot_v3(exported: tuple[list, Path]) -> None:
     assert len(stats["observation.state"]["mean"]) == 8 * len(episodes[0].arm_names)
 
 
-def test_round_trip(exported: tuple[list, Path]) -> None:
-    episodes, out = exported
+@pytest.mark.parametrize("dataset", ["exported", "exported_twin"])
+def test_round_trip(dataset: str, request: pytest.FixtureRequest) -> None:
+    episodes, out = request.getfixturevalue(dataset)
     back = import_lerobot(out)
     assert len(back) == len(episodes)
     for a, b in zip(episodes, back):
@@ -60,6 +72,7 @@ def test_round_trip(exported: tuple[list, Path]) -> None:
             b.task, b.seed, b.instruction, b.arm_bases, b.goal_nouns)
         if a.dense is not None:
             assert all(np.array_equal(a.dense[k], b.dense[k]) for k in a.dense)
+        assert b.camera_names == a.camera_names and b.arrays["rgb"].shape == a.arrays["rgb"].shape
 
 
 def test_missing_features_are_named(exported: tuple[list, Path], tmp_path: Path) -> None:
@@ -128,3 +141,20 @@ def test_a_joint_space_dataset_imports_through_kinematics(exported: tuple[list, 
     np.testing.assert_allclose(proprio[:, 0, :3], np.stack([0.5 * np.cos(angle), 0.3 + 0.5 * np.sin(angle),
                                                             np.ones(n)], 1), atol=1e-5)
     assert (proprio[:, 0, 7] == 1).all() and (proprio[:, 1, 7] == 0).all()
+
+
+def test_the_command_names_the_robot_the_demos_were_recorded_on(exported_twin: tuple[list, Path],
+                                                                 tmp_path: Path) -> None:
+    from bimanualshift.cli.deploy import ExportLerobotArgs, robot_type_of
+    from bimanualshift.cli.deploy import export_lerobot as export_command
+
+    episodes, _ = exported_twin
+    data = tmp_path / "data" / "vegetable_sorting"
+    data.mkdir(parents=True)
+    for e in episodes:
+        write_episode(data / f"episode_{e.seed}.h5", e)
+    export_command(ExportLerobotArgs(data=str(tmp_path / "data"), out=str(tmp_path / "ds")))
+    assert json.loads((tmp_path / "ds" / "meta" / "info.json").read_text())["robot_type"] == "bimanual_ur5e"
+    assert robot_type_of(["push_two_buttons"]) == "bimanual_panda"
+    with pytest.raises(ValueError, match="different robots"):
+        robot_type_of(["push_two_buttons", "vegetable_sorting"])

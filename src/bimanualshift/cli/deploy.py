@@ -160,8 +160,23 @@ class ExportLerobotArgs:
     data: Annotated[str, tyro.conf.Positional]  # a folder of episodes (a sub-folder per task: `collect`, `record`)
     out: Annotated[str, tyro.conf.Positional]  # the LeRobot v3.0 dataset folder to write
     task: list[str] = field(default_factory=list)  # only these tasks (default: every task folder in DATA)
-    robot_type: str = "bimanual_panda"
+    # LeRobot's robot_type (default: bimanual_<robot> from the tasks' robot spec, e.g. bimanual_ur5e on the twin)
+    robot_type: str = ""
     overwrite: bool = False
+
+
+def robot_type_of(tasks: list[str]) -> str:
+    """``bimanual_<spec>`` of the robot the tasks' episodes were recorded on (``Task.robot``, or the ``@robot`` of a
+    variant); a task this process does not know (an imported dataset's) counts as the benchmark's Panda."""
+    from bimanualshift.sim.task_registry import task_class, task_names
+
+    known = set(task_names())
+    robots = {task_class(t).robot if t in known else "panda" for t in tasks}
+    if len(robots) > 1:
+        raise ValueError(f"the tasks {', '.join(tasks)} were recorded on different robots "
+                         f"({', '.join(sorted(robots))}): export each robot's tasks with its own --task list, or name "
+                         "one --robot-type")
+    return f"bimanual_{robots.pop()}"
 
 
 def export_lerobot(args: ExportLerobotArgs) -> None:
@@ -175,7 +190,8 @@ def export_lerobot(args: ExportLerobotArgs) -> None:
     paths = [p for t in tasks for p in sorted((root / t).glob("episode_*.h5"))]
     if not paths:
         raise FileNotFoundError(f"no episode_*.h5 files under {root}/{{{','.join(tasks)}}}")
-    out = write_dataset([read_episode(p) for p in paths], args.out, args.robot_type, args.overwrite)
+    robot_type = args.robot_type or robot_type_of(tasks)
+    out = write_dataset([read_episode(p) for p in paths], args.out, robot_type, args.overwrite)
     print(f"wrote {len(paths)} episodes to {out} (LeRobot v3.0)")
 
 
