@@ -99,3 +99,47 @@ def test_a_calibration_file_gives_the_anchors_and_static_camera_poses() -> None:
         assert np.allclose(obs.extrinsics[overhead], truth.extrinsics["overhead"])
     finally:
         robot.disconnect()
+
+
+class PlanningPolicy:
+    """Plans three keyframes per call: stay, 1 cm up, then 60 cm up (through the workspace's ceiling)."""
+
+    name = "planning"
+
+    def reset(self) -> None:
+        self.rows = np.zeros((2, 9), np.float32)
+
+    def act(self, obs: object) -> np.ndarray:
+        self.rows = np.zeros((len(obs.scene.arm_names), 9), np.float32)
+        self.rows[:, :7], self.rows[:, 7] = obs.proprio[:, :7], 1.0
+        return self.rows
+
+    def action_chunk(self) -> np.ndarray:
+        up, far = self.rows.copy(), self.rows.copy()
+        up[:, 2] += 0.01
+        far[:, 2] += 0.60
+        return np.stack([self.rows, up, far], axis=1)
+
+
+# (keyframes run per reply, episode cap, requests): one per keyframe; one chunk; a chunk cut by the cap, then one more
+@pytest.mark.parametrize(("chunk_steps", "cap", "requests"), [(1, 3, 3), (3, 3, 1), (3, 4, 2)])
+def test_a_planned_chunk_runs_through_the_safety_filter(chunk_steps: int, cap: int, requests: int) -> None:
+    from bimanualshift.deploy.sim_robot import SIM_LIMITS
+
+    server = PolicyServer(PlanningPolicy(), {}, ServerConfig(port=0)).start_background()
+    robot = MujocoRobot("push_two_buttons")
+    robot.connect()
+    try:
+        record = run_sim_episode(robot, PolicyClient(f"ws://127.0.0.1:{server.port}"), seed=0, max_keyframes=cap,
+                                 chunk_steps=chunk_steps)
+    finally:
+        robot.disconnect()
+        server.stop()
+    assert record.aborted is None and record.keyframes == cap and len(record.round_trip_ms) == requests
+    executed = np.asarray(record.executed)  # (keyframes, arms, 9) as sent after the filter
+    if chunk_steps == 1:
+        assert record.clipped == 0  # only each reply's first keyframe runs: the arms stay where they are
+    else:
+        assert np.allclose(executed[1, :, 2] - executed[0, :, 2], 0.01, atol=1e-6)  # the plan, unchanged
+        assert np.allclose(executed[2, :, 2], SIM_LIMITS.workspace_high[2])  # the 60 cm rise, stopped at the ceiling
+        assert record.clipped >= 2  # that keyframe, for both arms

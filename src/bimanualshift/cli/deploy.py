@@ -74,6 +74,9 @@ class DeployArgs:
     calibration: str = ""
     out: str = ""  # write a result JSON (per-seed success, round trips, clipping) here
     rrd: str = ""  # write every episode to this rerun recording (.rrd), as `eval --rrd` does: `rerun FILE.rrd`
+    # where the policy plans keyframes ahead (a reply's `chunk`: the Diffusion Policy and ACT priors), run up to
+    # this many of them, each through the safety filter, before reading the robot again; 1 asks at every keyframe
+    chunk_steps: int = 1
 
 
 def deploy(args: DeployArgs) -> None:
@@ -95,7 +98,7 @@ def deploy(args: DeployArgs) -> None:
     rows = []
     for task in resolve_tasks(args.task):
         calibration = Calibration.load(args.calibration) if args.calibration else None
-        records = deploy_sim(task, client, seeds, args.max_keyframes, calibration, recorder)
+        records = deploy_sim(task, client, seeds, args.max_keyframes, calibration, recorder, args.chunk_steps)
         wins = sum(r.success for r in records)
         low, high = wilson_interval(wins, len(records))
         print(f"{task}: {wins}/{len(records)} ({100 * wins / len(records):.0f} %, 95 % CI {100 * low:.0f}-"

@@ -277,3 +277,14 @@ def action_from_reply(reply: Any, arm_names: list[str]) -> np.ndarray:
         rows.append(np.r_[pose, _number(a.get("gripper_open"), f"actions.{arm}.gripper_open", 0.0, 1.0),
                           _number(a.get("ignore_collisions"), f"actions.{arm}.ignore_collisions", 0.0, 1.0)])
     return np.asarray(rows, np.float32)
+
+
+def chunk_from_reply(reply: dict, arm_count: int) -> np.ndarray | None:
+    """The reply's (arms, k, 9) world rows where the policy planned k keyframes ahead (the first is ``action``),
+    or None where it sent no chunk; ``SchemaError`` if the chunk is malformed."""
+    if reply.get("chunk") is None:
+        return None
+    chunk = _array(reply["chunk"], "chunk", (arm_count, None, 9), "f")
+    if chunk.shape[1] < 1:
+        raise SchemaError("chunk", "at least one planned keyframe", describe(chunk), code="bad_reply")
+    return chunk.astype(np.float32)

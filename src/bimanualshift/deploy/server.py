@@ -162,7 +162,8 @@ class PolicyServer:
                 log_fn = getattr(session.policy, "keyframe_log", None)
                 diagnostics = log_fn() if callable(log_fn) else {}
                 chunk_fn = getattr(session.policy, "action_chunk", None)  # (arms, k, 9) where a policy plans ahead
-                chunk = np.asarray(chunk_fn(), np.float32) if callable(chunk_fn) else None
+                chunk = chunk_fn() if callable(chunk_fn) else None
+                chunk = None if chunk is None else np.asarray(chunk, np.float32)
         except (ValueError, KeyError) as err:  # the policy's own refusal of this observation
             return error_frame("policy_error", "observation", "an observation this policy can act on",
                                f"{type(err).__name__}: {err}")
