@@ -16,10 +16,11 @@ from bimanualshift.deploy.safety import SafetyFilter, SafetyLimits
 from bimanualshift.sim.env import ManipulationEnv
 from bimanualshift.sim.layout import WORKSPACE_HIGH, WORKSPACE_LOW
 
-# What the simulated arms accept: the benchmark's workspace, 1 mm inside its walls as the policies' own actions are
-# (a command clipped onto a wall would leave it once sent as float32); a keyframe may cross the table in one command
-# (the executor plans the motion), so the step limits only catch nonsense.
-SIM_LIMITS = SafetyLimits(tuple(WORKSPACE_LOW + 1e-3), tuple(WORKSPACE_HIGH - 1e-3), max_translation_m=1.5,
+# What the simulated arms accept: the benchmark's workspace, 0.5 mm inside its walls. A command clipped onto a wall
+# would leave it once sent as float32 and be refused; the policies' own actions stay 1 mm inside (``world_action``),
+# so they pass unclipped. A keyframe may cross the table in one command (the executor plans the motion), so the step
+# limits only catch nonsense.
+SIM_LIMITS = SafetyLimits(tuple(WORKSPACE_LOW + 5e-4), tuple(WORKSPACE_HIGH - 5e-4), max_translation_m=1.5,
                           max_rotation_rad=np.pi)
 
 
