@@ -101,3 +101,42 @@ def test_paired_counts_scenes_each_solved_that_the_other_did_not() -> None:
                           {"no_residual": {"scenes": 600, "full_wins": 62, "method_wins": 1, "p_value": 0.0}})
     measured = {t["target"]: t["measured"] for t in tiny}["no_residual below the full method"]
     assert "62 to 1 scenes, p < 0.001" in measured
+
+
+def _realworld_rows() -> list[dict]:
+    def row(task: str, method: str, run: str, success: float) -> dict:
+        return {"task": task, "method": method, "run": run, "demos": 15, "success": success, "episodes": 30,
+                "ci95": [max(0.0, success - 0.15), min(1.0, success + 0.1)]}
+
+    rows = []
+    for method, run, rates in (("bimanualshift", "BS-PerAct prior", (0.9, 1.0, 0.8)),
+                               ("peract_lf", "BS-PerAct prior", (0.5, 0.6, 0.4)),
+                               ("scratch_dp", "BS-PerAct prior", (0.1, 0.2, 0.0)),
+                               ("bimanualshift", "BS-DP prior", (0.6, 0.7, 0.5))):
+        # the study's order is not the paper's: the tiered table sorts by tier
+        for task, rate in zip(("block_threading", "vegetable_sorting", "toaster_activation"), rates):
+            rows.append(row(task, method, run, rate))
+        rows.append(row("average", method, run, sum(rates) / 3))
+    return rows
+
+
+def test_the_real_world_table_has_table_iis_tiers_and_targets() -> None:
+    from bimanualshift.evaluation.tables import table_for
+
+    paired = {"BS-PerAct prior": {"peract_lf": {"scenes": 90, "full_wins": 30, "method_wins": 2, "p_value": 0.0001},
+                                  "scratch_dp": {"scenes": 90, "full_wins": 20, "method_wins": 15, "p_value": 0.5}}}
+    result = {"command": "bimanualshift study realworld", "commit": "abc123def4567890", "created": "2026",
+              "machine": "cpu", "seeds": {}, "wall_time_s": 60.0, "rows": _realworld_rows(), "notes": "n",
+              "bench": True, "study": "realworld", "paired": paired}
+    lines = table_for(result).splitlines()
+    assert lines[0] == ("| tier | task | keyframes | bimanualshift [BS-PerAct prior] | peract_lf [BS-PerAct prior] | "
+                        "scratch_dp [BS-PerAct prior] | bimanualshift [BS-DP prior] |")
+    assert [line.split(" | ")[1] for line in lines[2:6]] == ["vegetable sorting", "toaster activation",
+                                                             "block threading", "average"]
+    assert lines[2].startswith("| Coordination | vegetable sorting | 4 | 100 (85–100) | 60 (45–70) |")
+    assert lines[4].startswith("| Precision | block threading | 4 |")
+    text = "\n".join(lines)
+    assert "| bimanualshift [BS-PerAct prior] average ≥ 85.6 % (the paper's) | 90 % | met |" in text
+    assert "| bimanualshift [BS-DP prior] average ≥ 65.0 % (the paper's) | 60 % | **missed** |" in text
+    assert "above peract_lf, paired p < 0.05 | 90 % vs 50 %; paired: 30 to 2 scenes, p < 0.001 | met |" in text
+    assert "above scratch_dp, paired p < 0.05 | 90 % vs 10 %; paired: 20 to 15 scenes, p = 0.5 | **missed** |" in text

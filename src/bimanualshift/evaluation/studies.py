@@ -18,7 +18,7 @@ from typing import Any
 
 from bimanualshift.evaluation.bench import BenchConfig, average_row, recorded_counts, recorded_methods, run_bench
 from bimanualshift.evaluation.plots import draw_plots
-from bimanualshift.evaluation.tables import bench_table, stage_table, targets_table
+from bimanualshift.evaluation.tables import stage_table, study_table, targets_table
 from bimanualshift.evaluation.targets import paired_with_full, study_targets
 from bimanualshift.registry import methods_with_role
 from bimanualshift.sim.perturbations import PRESETS
@@ -272,6 +272,7 @@ def run_study(name: str, overrides: dict[str, Any] | None = None, root: str = "r
             print(f"[study] {name}: tabulating every method recorded on all of its tasks, not this command's part "
                   "alone")
     runs, seeds, configs, episodes = [], {}, [], []
+    run_episodes: dict[str, list[dict[str, Any]]] = {}
     for label, cfg in tabulated:
         summary = ran.get(cfg.out) or run_bench(cfg, command=f"{command}  # run: {label}",
                                                 started=begun.get(cfg.out))
@@ -279,16 +280,19 @@ def run_study(name: str, overrides: dict[str, Any] | None = None, root: str = "r
         seeds = {**seeds, **{f"{label} {k}": v for k, v in result["seeds"].items()}}
         runs.append((label, result["rows"]))
         configs.append({"run": label, **asdict(cfg)})
-        episodes += tabulated_episodes(cfg)
+        run_episodes[label] = tabulated_episodes(cfg)
+        episodes += run_episodes[label]
     labelled = len({label for label, _ in plan}) > 1
     rows = combined_rows(runs, labelled=labelled)
     out = Path(root) / name
     out.mkdir(parents=True, exist_ok=True)
-    # the full method against every other row on the same scenes (one group of runs only: runs of several groups,
-    # e.g. 5 and 30 demos, are not the same scenes' contest)
-    paired = {} if labelled else paired_with_full(episodes)
+    # the full method against every other row on the same scenes: within each run where the study has several
+    # (5 and 30 demos, two priors, are not one contest), so there ``paired`` is keyed by the run
+    paired = ({label: paired_with_full(eps) for label, eps in run_episodes.items()} if labelled
+              else paired_with_full(episodes))
     targets = study_targets(name, rows, paired)
-    atomic_write_text(out / "table.md", "\n".join([bench_table(rows), stage_table(rows), targets_table(targets)]))
+    atomic_write_text(out / "table.md", "\n".join([study_table(name, rows), stage_table(rows),
+                                                   targets_table(targets)]))
     draw_plots(out, rows, f"study {name}")
     return write_result(out / "summary.json", command, seeds, started, rows, bench=True, study=name, runs=configs,
                         targets=targets, paired=paired,

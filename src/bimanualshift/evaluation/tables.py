@@ -161,7 +161,7 @@ def table_for(result: dict[str, Any], view: str = "") -> str:
         # derived from the rows (and the stored paired counts), never stored alone
         targets = study_targets(result.get("study", ""), result["rows"], result.get("paired"))
         stages = "" if view == "headline" else stage_table(result["rows"])
-        parts = [bench_table(result["rows"]), stages, targets_table(targets)]
+        parts = [study_table(result.get("study", ""), result["rows"]), stages, targets_table(targets)]
         return "\n".join([*(p for p in parts if p), _footer(result)]) + "\n"
     if "prior" in first and "tasks" in first:
         return priors_table(result)
@@ -208,6 +208,50 @@ def row_label(row: dict[str, Any]) -> str:
     """The method, the study run it belongs to and the perturbation it was tested under, where there are some."""
     return (row["method"] + (f" [{row['run']}]" if "run" in row else "")
             + (f" ({row['perturbation']})" if "perturbation" in row else ""))
+
+
+TIERED_STUDIES = ("realworld",)  # laid out as the paper's Table II: a row per task, grouped by tier
+TIER_ORDER = ("Coordination", "Collaboration", "Precision")
+
+
+def study_table(study: str, rows: list[dict[str, Any]]) -> str:
+    """A study's success table: Table II's tiered layout for the real-world study, Table I's for the others."""
+    return tiered_table(rows) if study in TIERED_STUDIES else bench_table(rows)
+
+
+def task_tier(task: str) -> tuple[str, int]:
+    """Where the paper tabulates ``task``: its tier and keyframe count (``Task.tier``, ``Task.paper_keyframes``);
+    a task this process does not know (or the paper does not tabulate) has neither."""
+    from bimanualshift.sim.task_registry import task_class
+
+    try:
+        cls = task_class(task)
+    except KeyError:
+        return "", 0
+    return cls.tier, cls.paper_keyframes
+
+
+def tiered_table(rows: list[dict[str, Any]]) -> str:
+    """Table II's layout: a row per task (tier, task, the paper's keyframe count), a column per method and run,
+    then the average over the tasks."""
+    labels = list(dict.fromkeys(row_label(r) for r in rows))
+    cell = {(row_label(r), r["task"]): r for r in rows}
+    tasks = [t for t in dict.fromkeys(r["task"] for r in rows) if t != "average"]
+    tiers = {t: task_tier(t) for t in tasks}
+    order = {tier: i for i, tier in enumerate(TIER_ORDER)}
+    tasks.sort(key=lambda t: order.get(tiers[t][0], len(order)))  # stable: the study's order within a tier
+
+    def text(r: dict[str, Any] | None) -> str:
+        return "–" if r is None else f"{100 * r['success']:.0f} ({100 * r['ci95'][0]:.0f}–{100 * r['ci95'][1]:.0f})"
+
+    lines = ["| tier | task | keyframes | " + " | ".join(labels) + " |", "|---|---|---|" + "---|" * len(labels)]
+    for task in tasks:
+        tier, keyframes = tiers[task]
+        lines.append(f"| {tier or '–'} | {task.replace('_', ' ')} | {keyframes or '–'} | "
+                     + " | ".join(text(cell.get((label, task))) for label in labels) + " |")
+    if any(r["task"] == "average" for r in rows):
+        lines.append("| – | average | – | " + " | ".join(text(cell.get((label, "average"))) for label in labels) + " |")
+    return "\n".join(lines) + "\n"
 
 
 def bench_table(rows: list[dict[str, Any]]) -> str:
