@@ -27,6 +27,7 @@ YAW = np.pi / 16
 POURED = 0.70  # the share of the balls that must end in the held cup
 TILT = np.deg2rad(110.0)  # how far the pouring hand turns its cup
 LIP_ABOVE_RIM = 0.04  # the pouring lip this far above the held cup's rim
+CARRY_BESIDE_POUR = 0.07  # the full cup is carried upright this far beside where it pours
 HANDLE_GRIP_OUT = 0.04  # the hand grips a handle this far out from the cup's wall
 GRIP_BELOW_HANDLE_TOP = 0.012
 
@@ -49,20 +50,25 @@ def handle_keyframes(sim: SimHandle, cup: str) -> tuple[ArmAction, ArmAction]:
 
 def pour_keyframes(sim: SimHandle, source: str, target: str) -> list[ArmAction]:
     """Over the held cup with the full one upright, then turned by ``TILT`` about its handle's axis, as a hand pours
-    from a mug, so that its lip (the side towards the robots) ends ``LIP_ABOVE_RIM`` above the held cup's mouth."""
+    from a mug, so that its lip ends ``LIP_ABOVE_RIM`` above the held cup's mouth. It is turned the way that tips
+    its mouth towards the robots: the hand then ends pointing forward, a pose the arm reaches from either side."""
     approach, grip = handle_keyframes(sim, source)
     mouth = to_world(sim, target, [0.0, 0.0, CUP_HEIGHT])
     # the full cup hangs from the hand towards the held one: its handle's axis along the line between them
     heading = float(np.arctan2(mouth[1] - grip.position[1], mouth[0] - grip.position[0]))
     yaw = heading - np.pi / 2
     turn = Rotation.from_euler("z", yaw)
-    lip_from_grip = np.array([-CUP_RADIUS, 0.0, CUP_HEIGHT]) - handle_local()
-    tipped = Rotation.from_rotvec(-TILT * turn.apply([0.0, 1.0, 0.0]))
+    side = 1.0 if turn.apply([1.0, 0.0, 0.0])[0] < 0 else -1.0  # the cup's own x that points at the robots
+    tipped = Rotation.from_rotvec(side * TILT * turn.apply([0.0, 1.0, 0.0]))
+    lip_from_grip = np.array([side * CUP_RADIUS, 0.0, CUP_HEIGHT]) - handle_local()
     # where the hand goes so that the tipped cup's lip is over the held cup's mouth
     pour_at = mouth + [0.0, 0.0, LIP_ABOVE_RIM] - tipped.apply(turn.apply(lip_from_grip))
     upright = hand_down(across(yaw))
     tipped_hand = (tipped * Rotation.from_quat(upright)).as_quat()
-    carry = pour_at + [0.0, 0.0, 0.0]
+    # carried upright beside the pour, away from the way it tips, its floor clear of the held cup's rim; it tips
+    # over the held cup as the hand moves in
+    tip_towards = turn.apply([side, 0.0, 0.0])
+    carry = pour_at - CARRY_BESIDE_POUR * tip_towards + [0.0, 0.0, 0.02]
     return [approach, grip, ArmAction(carry, upright, 0.0, 1.0), ArmAction(pour_at, tipped_hand, 0.0, 1.0)]
 
 
