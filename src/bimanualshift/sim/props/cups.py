@@ -1,9 +1,10 @@
 """Cups with a handle, and the small balls that stand in for water, for pouring from one cup into another.
 
-A cup is a ring of wall segments on a floor, with a flat handle sticking out of its -y side (the hand grips it
-with its fingers across it). Turned about the handle's axis, as a hand pours from a mug, it pours over its side.
-The balls are frictionless (``condim="1"``), as water is, and cheap: with friction, 40 of them made a physics step
-cost 25-60 ms; without, 1.7 ms."""
+A cup is a ring of wall segments on a floor, with a flat handle sticking out of its -y side: a hand steadying a cup
+on the table grips the handle, fingers across it. A hand that lifts a cup pinches its rim instead, one finger inside
+the wall: held by the handle, the cup's weight, 9 cm out, turned it 55 degrees about the fingers' axis. The balls
+are frictionless (``condim="1"``, and ``priority`` so that their contacts with the walls stay so), as water is, and
+cheap: with friction, 40 of them made a physics step cost 25-60 ms; without, 1.7 ms."""
 
 from __future__ import annotations
 
@@ -17,7 +18,10 @@ CUP_HEIGHT = 0.11
 CUP_WALL = 0.005
 CUP_FLOOR = 0.006
 SEGMENTS = 16
-CUP_HANDLE = (0.008, 0.03, 0.03)  # half sizes (x, y, z): it sticks out 6 cm from the wall, its top 1 cm below the rim
+CUP_HANDLE = (0.008, 0.045, 0.03)  # half sizes (x, y, z): it sticks out 9 cm from the wall, its top 1 cm below the rim
+# Torsional friction of the walls (condim 4): a pinched rim's pads have area, so the cup does not spin about the
+# fingers' axis when the hand accelerates sideways (without it, the carry swung the cup 37 degrees).
+WALL_TORSION = 0.02
 BALL_RADIUS = 0.007
 BALLS = 40
 
@@ -27,7 +31,7 @@ def cup_xml(name: str, mounted: bool = False, rgba: str = "0.8 0.8 0.8 1") -> st
     half_h = (CUP_HEIGHT - CUP_FLOOR) / 2
     ring = CUP_RADIUS + CUP_WALL / 2
     half_len = ring * np.tan(np.pi / SEGMENTS) + CUP_WALL / 2
-    style = f'group="1" rgba="{rgba}" friction="0.8 0.005 0.0001"'
+    style = f'group="1" rgba="{rgba}" condim="4" friction="0.8 {WALL_TORSION} 0.0001"'
     geoms = [f'<geom name="{name}_floor" type="cylinder" size="{CUP_RADIUS + CUP_WALL} {CUP_FLOOR / 2}" '
              f'pos="0 0 {CUP_FLOOR / 2}" {style}/>']
     for i in range(SEGMENTS):
@@ -55,7 +59,7 @@ def water_xml(n: int = BALLS) -> str:
   <freejoint name="water_{i}_joint"/>
   <inertial pos="0 0 0" mass="0.002" diaginertia="4e-8 4e-8 4e-8"/>
   <geom name="water_{i}_geom" type="sphere" size="{BALL_RADIUS}" group="1" rgba="0.2 0.45 0.9 1"
-        condim="1" solref="0.01 1"/>
+        condim="1" priority="1" solref="0.01 1"/>
 </body>""" for i in range(n))
 
 

@@ -1,6 +1,7 @@
 """Pouring water (the paper's real-world Collaboration tier, 4 keyframes): the left arm holds a cup by its handle;
-the right arm takes the other cup, full of 40 small balls standing in for water, by its handle, brings it over the
-held cup and tips it. Success: at least 70 % of the balls in the held cup, and that cup held upright."""
+the right arm pinches the other cup's rim, the cup full of 40 small balls standing in for water, lifts it over the
+held cup and tips it towards the robots. Success: at least 70 % of the balls in the held cup, and that cup upright.
+The held cup's handle sticks out 9 cm, so the hand holding it stays clear of the tipped cup."""
 
 from __future__ import annotations
 
@@ -25,11 +26,16 @@ TARGET_REGION = ((-0.06, 0.04), (0.0, 0.06))
 SOURCE_REGION = ((-0.04, 0.04), (-0.24, -0.18))
 YAW = np.pi / 16
 POURED = 0.70  # the share of the balls that must end in the held cup
-TILT = np.deg2rad(110.0)  # how far the pouring hand turns its cup
-LIP_ABOVE_RIM = 0.04  # the pouring lip this far above the held cup's rim
+# How far the pouring hand tips its cup, and its lowest lip's height above the held rim: the wrist lags 2-5 degrees
+# about the vertical, so the stream drifts sideways; tipped less, from lower, it lands (10 of 10 seeds against 6 at
+# 110 degrees from 4 cm)
+TILT = np.deg2rad(100.0)
+LIP_ABOVE_RIM = 0.02
 CARRY_BESIDE_POUR = 0.07  # the full cup is carried upright this far beside where it pours
-HANDLE_GRIP_OUT = 0.04  # the hand grips a handle this far out from the cup's wall
+CARRY_ABOVE_RIM = 0.12  # the carried cup's floor this high above the held rim: its path up from the table clears it
+HANDLE_GRIP_OUT = 0.07  # the hand grips a handle this far out from the cup's wall: clear of the tipped cup
 GRIP_BELOW_HANDLE_TOP = 0.012
+RIM_PINCH_DEPTH = 0.035  # the pads' centre this far below the rim
 
 
 def across(yaw: float) -> float:
@@ -48,28 +54,34 @@ def handle_keyframes(sim: SimHandle, cup: str) -> tuple[ArmAction, ArmAction]:
     return ArmAction(grip + [0, 0, 0.08], quat, 1.0, 1.0), ArmAction(grip, quat, 0.0, 0.0)
 
 
+def rim_pinch(sim: SimHandle, cup: str) -> tuple[np.ndarray, np.ndarray]:
+    """Where a hand pinches the cup's rim on its far side (+x, away from the robots), one finger inside the wall and
+    one outside, and how it is turned (pointing down, closing along the table's x). A cup held up by its handle
+    turns in the fingers (its weight, 9 cm out, twists it about the fingers' axis: 55 degrees); held by the wall,
+    the pads clamp the wall flat, so the cup turns only with the hand."""
+    centre = sim.body_pos(cup)
+    grip = np.array([centre[0] + CUP_RADIUS + CUP_WALL / 2, centre[1], centre[2] + CUP_HEIGHT - RIM_PINCH_DEPTH])
+    return grip, hand_down(np.pi / 2)
+
+
 def pour_keyframes(sim: SimHandle, source: str, target: str) -> list[ArmAction]:
-    """Over the held cup with the full one upright, then turned by ``TILT`` about its handle's axis, as a hand pours
-    from a mug, so that its lip ends ``LIP_ABOVE_RIM`` above the held cup's mouth. It is turned the way that tips
-    its mouth towards the robots: the hand then ends pointing forward, a pose the arm reaches from either side."""
-    approach, grip = handle_keyframes(sim, source)
+    """Pinch the full cup's far rim, carry it upright beside the held cup, then tip it towards the robots (about
+    the table's y axis through the pinch, the hand turning from pointing down to pointing forward and up) so that
+    its lowest lip ends ``LIP_ABOVE_RIM`` above the held cup's mouth."""
+    grip, quat = rim_pinch(sim, source)
+    cup_from_grip = sim.body_pos(source) - grip  # the cup's origin from the pinch (the cup upright)
     mouth = to_world(sim, target, [0.0, 0.0, CUP_HEIGHT])
-    # the full cup hangs from the hand towards the held one: its handle's axis along the line between them
-    heading = float(np.arctan2(mouth[1] - grip.position[1], mouth[0] - grip.position[0]))
-    yaw = heading - np.pi / 2
-    turn = Rotation.from_euler("z", yaw)
-    side = 1.0 if turn.apply([1.0, 0.0, 0.0])[0] < 0 else -1.0  # the cup's own x that points at the robots
-    tipped = Rotation.from_rotvec(side * TILT * turn.apply([0.0, 1.0, 0.0]))
-    lip_from_grip = np.array([side * CUP_RADIUS, 0.0, CUP_HEIGHT]) - handle_local()
-    # where the hand goes so that the tipped cup's lip is over the held cup's mouth
-    pour_at = mouth + [0.0, 0.0, LIP_ABOVE_RIM] - tipped.apply(turn.apply(lip_from_grip))
-    upright = hand_down(across(yaw))
-    tipped_hand = (tipped * Rotation.from_quat(upright)).as_quat()
-    # carried upright beside the pour, away from the way it tips, its floor clear of the held cup's rim; it tips
-    # over the held cup as the hand moves in
-    tip_towards = turn.apply([side, 0.0, 0.0])
-    carry = pour_at - CARRY_BESIDE_POUR * tip_towards + [0.0, 0.0, 0.02]
-    return [approach, grip, ArmAction(carry, upright, 0.0, 1.0), ArmAction(pour_at, tipped_hand, 0.0, 1.0)]
+    tip = Rotation.from_rotvec([0.0, -TILT, 0.0])  # the cup's mouth turns towards -x, the robots
+    rim = [np.array([CUP_RADIUS * np.cos(a), CUP_RADIUS * np.sin(a), CUP_HEIGHT])
+           for a in np.linspace(0, 2 * np.pi, 48, endpoint=False)]
+    lip = min(rim, key=lambda r: tip.apply(r)[2])  # the rim's lowest point once tipped (the cup's own yaw aside)
+    pour_at = mouth + [0.0, 0.0, LIP_ABOVE_RIM] - tip.apply(cup_from_grip) - tip.apply(lip)
+    tipped_hand = (tip * Rotation.from_quat(quat)).as_quat()
+    # carried upright beside the pour, on the far side from where the mouth tips, its floor clear of the held rim
+    carry = pour_at + [CARRY_BESIDE_POUR, 0.0, 0.0]
+    carry[2] = max(pour_at[2], mouth[2] + CARRY_ABOVE_RIM - cup_from_grip[2])
+    return [ArmAction(grip + [0.0, 0.0, 0.08], quat, 1.0, 1.0), ArmAction(grip, quat, 0.0, 0.0),
+            ArmAction(carry, quat, 0.0, 1.0), ArmAction(pour_at, tipped_hand, 0.0, 1.0)]
 
 
 class PouringTask(Task):
@@ -77,6 +89,7 @@ class PouringTask(Task):
 
     robot = "ur5e"
     mirrored_by_half_turn = ("cup_full", "cup_held")  # a cup's mirror image has its handle on the other side
+    hold_steps = 16  # 0.8 s: the balls leave the tipped cup and land before the next keyframe (or the end)
 
     def instruction(self) -> str:
         return "hold the cup and pour the water into it"

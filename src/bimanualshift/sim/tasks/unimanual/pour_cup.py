@@ -1,6 +1,6 @@
-"""Single arm, on the UR5e twin: take a cup full of water (40 balls) by its handle and pour it into another cup
-(pour), the skill of Pouring Water's right arm. The full cup stands 6-12 cm to either side of the arm, its handle
-towards it; the other cup is fixed to the table 30-36 cm out on the same side, as both stand from the right arm's
+"""Single arm, on the UR5e twin: lift a cup full of water (40 balls) by its rim and pour it into another cup
+(pour), the skill of Pouring Water's right arm. The full cup stands 6-12 cm to the arm's left, its handle
+towards it; the other cup is fixed to the table 30-36 cm out on that side, as both stand from the right arm's
 base in that task. Success: 70 % of the balls in the other cup at least."""
 
 from __future__ import annotations
@@ -35,7 +35,7 @@ class PourCup(PouringTask):
         return "pour the water into the other cup"
 
     def initialize_episode(self, sim: SimHandle, rng: np.random.Generator) -> None:
-        side = 1.0 if rng.random() < 0.5 else -1.0
+        side = 1.0  # towards the arm's left: where Pouring Water's right arm pours (its left arm never does)
         full = np.array([rng.uniform(*SOURCE_REGION[0]), side * rng.uniform(*FULL_Y)])
         target = sim.body_id("cup_held")
         sim.model.body_pos[target] = (rng.uniform(*TARGET_REGION[0]), side * rng.uniform(*TARGET_Y), TABLE_TOP_Z)
