@@ -370,6 +370,10 @@ class ManipulationEnv(gym.Env):
             final_rot = {arm: canonical_quat(targets[arm].quat) for arm in self.arm_names}
             for _ in range(12):
                 self._control_step(self._robot_command(cmd_pos, final_rot))
+        if self.task.hold_steps:
+            held = {arm: canonical_quat(targets[arm].quat) for arm in self.arm_names}
+            for _ in range(self.task.hold_steps):
+                self._control_step(self._robot_command(cmd_pos, held))
         return reached
 
     def _pose_error(self, robot_index: int, target: ArmAction, tol_m: float = 0.006, tol_rad: float = 0.06) -> bool:

@@ -170,6 +170,9 @@ class Task(ABC):
     # (Table II); empty for the tasks it has no such row for.
     tier: ClassVar[str] = ""
     paper_keyframes: ClassVar[int] = 0
+    # Control steps (50 ms each) the arms hold a keyframe's pose once they reach it, for tasks whose objects keep
+    # moving after the hands stop (poured balls still falling); 0 moves on at once, as RLBench does.
+    hold_steps: ClassVar[int] = 0
 
     def __init__(self, perturbations: Perturbations | None = None) -> None:
         self.perturbations = perturbations or Perturbations()

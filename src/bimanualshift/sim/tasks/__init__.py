@@ -11,6 +11,7 @@ from bimanualshift.sim.tasks.bimanual import (  # noqa: F401
 )
 from bimanualshift.sim.tasks.realworld import (  # noqa: F401
     block_threading,
+    pouring_water,
     serve_toast,
     toaster_activation,
     toasting_completion,
@@ -18,6 +19,7 @@ from bimanualshift.sim.tasks.realworld import (  # noqa: F401
 )
 from bimanualshift.sim.tasks.unimanual import (  # noqa: F401
     drag_dustpan,
+    hold_cup,
     hold_dustpan,
     hold_rod,
     insert_bread,
@@ -26,6 +28,7 @@ from bimanualshift.sim.tasks.unimanual import (  # noqa: F401
     pick_up_small_plate,
     place_toast,
     place_vegetable,
+    pour_cup,
     press_lever,
     pull_rope_end,
     push_ball_aside,
