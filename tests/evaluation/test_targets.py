@@ -140,3 +140,29 @@ def test_the_real_world_table_has_table_iis_tiers_and_targets() -> None:
     assert "| bimanualshift [BS-DP prior] average ≥ 65.0 % (the paper's) | 60 % | **missed** |" in text
     assert "above peract_lf, paired p < 0.05 | 90 % vs 50 %; paired: 30 to 2 scenes, p < 0.001 | met |" in text
     assert "above scratch_dp, paired p < 0.05 | 90 % vs 10 %; paired: 20 to 15 scenes, p = 0.5 | **missed** |" in text
+
+
+def test_the_generalisation_table_has_table_iiis_averages_and_degradations() -> None:
+    from bimanualshift.evaluation.tables import table_for
+
+    def row(method: str, perturbation: str, stages: tuple[float, float, float]) -> dict:
+        return {"task": "block_threading", "method": method, "perturbation": perturbation, "success": stages[-1],
+                "episodes": 30, "ci95": [0.0, 1.0],
+                "stages": [{"stage": s, "success": v} for s, v in zip(("approach", "alignment", "insertion"), stages)]}
+
+    rows = [row("bimanualshift", "none", (0.9, 0.6, 0.3)), row("peract_lf", "none", (0.6, 0.3, 0.0)),
+            row("bimanualshift", "lighting", (0.9, 0.3, 0.0)), row("peract_lf", "lighting", (0.3, 0.0, 0.0)),
+            row("bimanualshift", "glare", (0.3, 0.0, 0.0)), row("peract_lf", "glare", (0.6, 0.3, 0.0))]
+    result = {"command": "bimanualshift study realworld_generalisation", "commit": "abc123def4567890",
+              "created": "2026", "machine": "cpu", "seeds": {}, "wall_time_s": 60.0, "rows": rows, "notes": "n",
+              "bench": True, "study": "realworld_generalisation"}
+    text = table_for(result, view="headline")
+    lines = text.splitlines()
+    assert lines[0].startswith("| condition | bimanualshift average | bimanualshift last stage | bimanualshift RDR |")
+    assert lines[2] == "| none | 60.0 | 30 | – | 30.0 | 0 | – |"
+    assert lines[3] == "| lighting | 40.0 | 0 | 33 % | 10.0 | 0 | 67 % |"  # (60 - 40) / 60 and (30 - 10) / 30
+    assert lines[4] == "| glare | 10.0 | 0 | 83 % | 30.0 | 0 | 0 % |"
+    assert "| bimanualshift's stage average above peract_lf's under every condition | 2 of 3; not under glare |" in text
+    assert ("| bimanualshift's degradation below peract_lf's under ≥ 5 of the 7 perturbations | 1 of 2 | **missed** |"
+            in text)
+    assert "stage-wise success" not in text and "stage-wise success" in table_for(result)

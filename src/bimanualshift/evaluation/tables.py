@@ -214,9 +214,53 @@ TIERED_STUDIES = ("realworld",)  # laid out as the paper's Table II: a row per t
 TIER_ORDER = ("Coordination", "Collaboration", "Precision")
 
 
+STAGE_AVERAGE_STUDIES = ("realworld_generalisation",)  # laid out as the paper's Table III
+
+
 def study_table(study: str, rows: list[dict[str, Any]]) -> str:
-    """A study's success table: Table II's tiered layout for the real-world study, Table I's for the others."""
-    return tiered_table(rows) if study in TIERED_STUDIES else bench_table(rows)
+    """A study's success table: Table II's tiered layout for the real-world study, Table III's stage averages for
+    its generalisation study, Table I's for the others."""
+    if study in TIERED_STUDIES:
+        return tiered_table(rows)
+    if study in STAGE_AVERAGE_STUDIES:
+        return stage_average_table(rows)
+    return bench_table(rows)
+
+
+def stage_average(row: dict[str, Any]) -> float:
+    """The mean of a row's stage-wise success rates (Table III's "average"), or its success without stages."""
+    stages = row.get("stages") or []
+    return sum(s["success"] for s in stages) / len(stages) if stages else row["success"]
+
+
+def degradation_rates(rows: list[dict[str, Any]]) -> dict[tuple[str, str], float]:
+    """(method, perturbation) -> the relative drop of its stage average from its own unperturbed one (Table III's
+    RDR); a method with a zero unperturbed average has none."""
+    base = {r["method"]: stage_average(r) for r in rows if r.get("perturbation", "none") == "none"}
+    return {(r["method"], r["perturbation"]): (base[r["method"]] - stage_average(r)) / base[r["method"]]
+            for r in rows if r.get("perturbation", "none") != "none" and base.get(r["method"])}
+
+
+def stage_average_table(rows: list[dict[str, Any]]) -> str:
+    """Table III's layout: a row per condition; per method the stage average, the last stage's success and the
+    relative degradation from its own unperturbed average."""
+    methods = list(dict.fromkeys(r["method"] for r in rows))
+    cell = {(r["method"], r.get("perturbation", "none")): r for r in rows}
+    rdr = degradation_rates(rows)
+    head = ["condition"] + [f"{m} {what}" for m in methods for what in ("average", "last stage", "RDR")]
+    lines = ["| " + " | ".join(head) + " |", "|---|" + "---|" * (len(head) - 1)]
+    for condition in dict.fromkeys(r.get("perturbation", "none") for r in rows):
+        cells = []
+        for m in methods:
+            r = cell.get((m, condition))
+            if r is None:
+                cells += ["–"] * 3
+                continue
+            rate = rdr.get((m, condition))
+            cells += [f"{100 * stage_average(r):.1f}", f"{100 * r['success']:.0f}",
+                      "–" if rate is None else f"{100 * rate:.0f} %"]
+        lines.append(f"| {condition.replace('_', ' ')} | " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
 
 
 def task_tier(task: str) -> tuple[str, int]:

@@ -146,6 +146,8 @@ def study_targets(study: str, rows: list[dict[str, Any]], paired: dict[str, dict
         return table1_targets(rows, paired)
     if study == "realworld":
         return realworld_targets(rows, paired)
+    if study == "realworld_generalisation":
+        return generalisation_targets(rows)
     return few_shot_targets(rows) if study == "few_shot" else []
 
 
@@ -177,3 +179,26 @@ def realworld_targets(rows: list[dict[str, Any]], paired: dict[str, dict[str, An
     return out
 
 
+
+
+def generalisation_targets(rows: list[dict[str, Any]], rival: str = "peract_lf") -> list[dict[str, Any]]:
+    """Table III's: the full method's stage average above the rival's under every condition, and its relative
+    degradation below the rival's under at least 5 of the 7 perturbations."""
+    from bimanualshift.evaluation.tables import degradation_rates, stage_average
+
+    avg = {(r["method"], r.get("perturbation", "none")): stage_average(r) for r in rows}
+    conditions = list(dict.fromkeys(r.get("perturbation", "none") for r in rows))
+    both = [c for c in conditions if (FULL, c) in avg and (rival, c) in avg]
+    if not both:
+        return [_target("every Table III target", f"{FULL} and {rival} not both in this run", None)]
+    above = [c for c in both if avg[(FULL, c)] > avg[(rival, c)]]
+    below = [c for c in both if c not in above]
+    out = [_target(f"{FULL}'s stage average above {rival}'s under every condition",
+                   f"{len(above)} of {len(both)}" + (f"; not under {', '.join(below)}" if below else ""),
+                   len(above) == len(both))]
+    rdr = degradation_rates(rows)
+    perturbed = [c for c in both if c != "none" and (FULL, c) in rdr and (rival, c) in rdr]
+    lower = [c for c in perturbed if rdr[(FULL, c)] < rdr[(rival, c)]]
+    out.append(_target(f"{FULL}'s degradation below {rival}'s under ≥ 5 of the 7 perturbations",
+                       f"{len(lower)} of {len(perturbed)}", len(lower) >= 5))
+    return out
