@@ -97,6 +97,14 @@ class PouringTask(Task):
     def goal_nouns(self) -> list[str]:
         return ["cup", "water"]
 
+    def fill_and_colour(self, sim: SimHandle, full: np.ndarray, rng: np.random.Generator) -> None:
+        """The water into the cup standing at ``full`` (x, y), and a colour for each cup."""
+        fill_cup(sim, full, rng)
+        held_colour, full_colour = self.pick_colours(rng, 2)
+        sim.set_rgb_prefix("cup_held_", self.palette[held_colour])
+        sim.set_rgb_prefix("cup_full_", self.palette[full_colour])
+        self.episode = {"colours": {"cup_held": held_colour, "cup_full": full_colour}}
+
     def instance_class(self, instance: str) -> str:
         return "cup" if instance.startswith("cup_") else "water" if instance.startswith("water_") else instance
 
@@ -116,11 +124,7 @@ class PouringWater(PouringTask):
                           Rotation.from_euler("z", np.pi + rng.uniform(-YAW, YAW)).as_quat())
         sim.set_free_pose("cup_full_joint", np.r_[full, TABLE_TOP_Z + 0.001],
                           Rotation.from_euler("z", rng.uniform(-YAW, YAW)).as_quat())
-        fill_cup(sim, full, rng)
-        held_colour, full_colour = self.pick_colours(rng, 2)
-        sim.set_rgb_prefix("cup_held_", self.palette[held_colour])
-        sim.set_rgb_prefix("cup_full_", self.palette[full_colour])
-        self.episode = {"colours": {"cup_held": held_colour, "cup_full": full_colour}}
+        self.fill_and_colour(sim, full, rng)
 
     def evaluate_success(self, sim: SimHandle) -> bool:
         up = sim.data.xmat[sim.body_id("cup_held")].reshape(3, 3)[2, 2]

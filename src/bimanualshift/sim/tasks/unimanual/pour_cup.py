@@ -9,7 +9,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from bimanualshift.sim.layout import TABLE_TOP_Z
-from bimanualshift.sim.props.cups import cup_xml, fill_cup, water_in, water_xml
+from bimanualshift.sim.props.cups import cup_xml, water_in, water_xml
 from bimanualshift.sim.task import Keyframe, SimHandle, register_task
 from bimanualshift.sim.tasks.realworld.pouring_water import (
     POURED,
@@ -35,19 +35,15 @@ class PourCup(PouringTask):
         return "pour the water into the other cup"
 
     def initialize_episode(self, sim: SimHandle, rng: np.random.Generator) -> None:
-        side = 1.0  # towards the arm's left: where Pouring Water's right arm pours (its left arm never does)
-        full = np.array([rng.uniform(*SOURCE_REGION[0]), side * rng.uniform(*FULL_Y)])
+        # both cups to the arm's left (+y): where Pouring Water's right arm pours (its left arm never does)
+        full = np.array([rng.uniform(*SOURCE_REGION[0]), rng.uniform(*FULL_Y)])
         target = sim.body_id("cup_held")
-        sim.model.body_pos[target] = (rng.uniform(*TARGET_REGION[0]), side * rng.uniform(*TARGET_Y), TABLE_TOP_Z)
-        turned = np.pi if side > 0 else 0.0  # the fixed cup's handle away from the arm
-        sim.model.body_quat[target] = np.roll(Rotation.from_euler("z", turned + rng.uniform(-YAW, YAW)).as_quat(), 1)
-        yaw = rng.uniform(-YAW, YAW) + (0.0 if side > 0 else np.pi)  # the full cup's handle towards the arm
+        sim.model.body_pos[target] = (rng.uniform(*TARGET_REGION[0]), rng.uniform(*TARGET_Y), TABLE_TOP_Z)
+        # the fixed cup's handle away from the arm
+        sim.model.body_quat[target] = np.roll(Rotation.from_euler("z", np.pi + rng.uniform(-YAW, YAW)).as_quat(), 1)
+        yaw = rng.uniform(-YAW, YAW)  # the full cup's handle towards the arm
         sim.set_free_pose("cup_full_joint", np.r_[full, TABLE_TOP_Z + 0.001], Rotation.from_euler("z", yaw).as_quat())
-        fill_cup(sim, full, rng)
-        held_colour, full_colour = self.pick_colours(rng, 2)
-        sim.set_rgb_prefix("cup_held_", self.palette[held_colour])
-        sim.set_rgb_prefix("cup_full_", self.palette[full_colour])
-        self.episode = {"colours": {"cup_held": held_colour, "cup_full": full_colour}}
+        self.fill_and_colour(sim, full, rng)
 
     def evaluate_success(self, sim: SimHandle) -> bool:
         return water_in(sim, "cup_held") >= POURED
