@@ -58,6 +58,7 @@ class ViewArgs:
 
 
 def view(args: ViewArgs) -> None:
+    from bimanualshift.evaluation.stats import episode_key
     from bimanualshift.evaluation.viewer import EpisodeRecorder, record_demo, record_logged
     from bimanualshift.utils.jsonl import read_records
 
@@ -82,8 +83,7 @@ def view(args: ViewArgs) -> None:
                          f"{args.method or 'any'}, seeds {args.seed or 'any'}")
     if not args.all and not args.seed:
         outcomes = _outcomes(logs)
-        failed = [e for e in entries if outcomes.get((e["task"], e["method"], e.get("perturbation", "none"),
-                                                      int(e["seed"]))) is False]
+        failed = [e for e in entries if outcomes.get(episode_key(e)) is False]
         entries = (failed or entries)[:1]
     first = entries[0]
     out = Path(args.out or logs[0].parent / f"{first['task']}_{first['method']}_{first['seed']}.rrd")
@@ -96,11 +96,12 @@ def view(args: ViewArgs) -> None:
 
 def _outcomes(logs: list[Path]) -> dict[tuple, bool]:
     """(task, method, perturbation, seed) -> success, from the episodes.jsonl beside each keyframes log."""
+    from bimanualshift.evaluation.stats import episode_key
     from bimanualshift.utils.jsonl import read_records
 
     out = {}
     for log in logs:
         path = log.with_name("episodes.jsonl")
         for e in read_records(path) if path.is_file() else []:
-            out[(e["task"], e["method"], e.get("perturbation", "none"), int(e["seed"]))] = bool(e["success"])
+            out[episode_key(e)] = bool(e["success"])
     return out

@@ -24,7 +24,7 @@ import numpy as np
 from bimanualshift.configs import DEFAULT_PRIOR
 from bimanualshift.data.seeds import split_seeds
 from bimanualshift.evaluation.plots import bench_title, draw_plots
-from bimanualshift.evaluation.stats import SuccessRate, SuccessRow
+from bimanualshift.evaluation.stats import SuccessRate, SuccessRow, episode_key
 from bimanualshift.evaluation.tables import bench_table, stage_table
 from bimanualshift.registry import METHODS, REFINE_EPISODES, REFINE_FOLDER, MethodSpec, TrainRequest, get_method
 from bimanualshift.rollout.loop import KEYFRAME_BUDGET
@@ -275,10 +275,6 @@ RRD_PARTS = "rerun_parts"  # each recorded episode's .rrd, before they are merge
 append_episode = append_record
 
 
-def _key(e: dict[str, Any]) -> tuple[str, str, str, int]:
-    return e["task"], e["method"], e.get("perturbation", "none"), e["seed"]
-
-
 def bench_rows(episodes: list[dict[str, Any]], methods: list[str], tasks: list[str], demos: int,
                perturbations: list[str] = ("none",)) -> list[dict[str, Any]]:
     """Success per (task, method[, perturbation]) with Wilson 95 % intervals, then each method's average over
@@ -354,7 +350,7 @@ def recorded_counts(cfg: BenchConfig) -> dict[tuple[str, str], tuple[int, int]]:
     """Per (task, method) of the run: its rollouts (perturbation, test seed) in ``episodes.jsonl`` and planned."""
     from bimanualshift.sim.task_registry import resolve_task_names
 
-    done = {_key(e) for e in read_episodes(Path(cfg.out) / "episodes.jsonl")}
+    done = {episode_key(e) for e in read_episodes(Path(cfg.out) / "episodes.jsonl")}
     seeds = bench_seeds(cfg)["test"]
     planned = len(seeds) * len(cfg.perturbations)
     return {(t, m): (sum((t, m, p, s) in done for p in cfg.perturbations for s in seeds), planned)
@@ -410,7 +406,7 @@ def run_bench(cfg: BenchConfig, command: str | None = None, started: float | Non
     for name in cfg.perturbations:
         preset(name)  # an unknown preset fails before any work
     log = out / "episodes.jsonl"
-    done = {_key(e) for e in read_episodes(log)}
+    done = {episode_key(e) for e in read_episodes(log)}
     for task in tasks:
         # A method whose every test episode is already recorded is neither retrained nor re-collected for, so
         # adding a method to a finished run costs only that method.
@@ -450,7 +446,7 @@ def run_bench(cfg: BenchConfig, command: str | None = None, started: float | Non
     elif cfg.rrd:
         print(f"[bench] no episode ran here to record into {cfg.rrd}; `bimanualshift view {out}` writes recorded ones")
     wanted = {(j.task, j.method, j.perturbation, j.seed) for j in jobs}
-    episodes = [e for e in read_episodes(log) if _key(e) in wanted]
+    episodes = [e for e in read_episodes(log) if episode_key(e) in wanted]
     rows = bench_rows(episodes, cfg.methods, tasks, cfg.demos, cfg.perturbations)
     print_success_table(rows, f"bench: {cfg.demos} demos, {cfg.episodes} {cfg.evaluate_on} episodes per task")
     if rows:  # (none when only training was asked for: --episodes 0)

@@ -21,6 +21,7 @@ import numpy as np
 
 from bimanualshift.core.arms import ARM_NAMES_BIMANUAL
 from bimanualshift.evaluation.bench import KEYFRAME_LOG
+from bimanualshift.evaluation.stats import episode_key
 from bimanualshift.geometry.frames import gripper_angle_deg
 from bimanualshift.registry import METHODS, get_method
 from bimanualshift.utils.jsonl import read_records
@@ -262,9 +263,8 @@ def explain_rows(folder: str | Path, task: str, methods: list[str] | None = None
         raise FileNotFoundError(f"{folder} has no {KEYFRAME_LOG}: it was benchmarked before per-keyframe logs "
                                 "existed; re-run its bench command (finished episodes are not redone, so delete "
                                 "episodes.jsonl to log them)")
-    episodes = {(e["task"], e["method"], e.get("perturbation", "none"), e["seed"]): e
-                for e in read_records(folder / "episodes.jsonl")}
-    logs = {(r["task"], r["method"], r.get("perturbation", "none"), r["seed"]): r["steps"] for r in read_records(log)}
+    episodes = {episode_key(e): e for e in read_records(folder / "episodes.jsonl")}
+    logs = {episode_key(r): r["steps"] for r in read_records(log)}
     keys = [k for k in episodes if k[0] == task and k in logs]
     if perturbation is not None:
         recorded = sorted({k[2] for k in keys})

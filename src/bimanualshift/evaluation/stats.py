@@ -11,6 +11,11 @@ from typing import Any, TypeVar
 Scene = TypeVar("Scene", int, tuple[Any, ...])  # a seed, or (task, perturbation, seed)
 
 
+def episode_key(record: Mapping[str, Any]) -> tuple[str, str, str, int]:
+    """An episode record's identity in a bench folder's logs: (task, method, perturbation, seed)."""
+    return record["task"], record["method"], record.get("perturbation", "none"), int(record["seed"])
+
+
 def wilson_interval(successes: int, trials: int, z: float = 1.959964) -> tuple[float, float]:
     if trials <= 0:
         raise ValueError("a success rate needs at least one trial")
