@@ -166,3 +166,28 @@ def test_the_generalisation_table_has_table_iiis_averages_and_degradations() -> 
     assert ("| bimanualshift's degradation below peract_lf's under ≥ 5 of the 7 perturbations | 1 of 2 | **missed** |"
             in text)
     assert "stage-wise success" not in text and "stage-wise success" in table_for(result)
+
+
+def test_fig_11_targets_on_the_twin() -> None:
+    from bimanualshift.evaluation.targets import study_targets
+
+    def row(task: str, method: str, run: str, success: float, stages: tuple = ()) -> dict:
+        return {"task": task, "method": method, "run": run, "success": success, "ci95": [0, 1], "episodes": 30,
+                "stages": [{"stage": n, "success": v} for n, v in stages]}
+
+    few = [row("vegetable_sorting", "bimanualshift", "5 demos", 0.9),
+           row("vegetable_sorting", "peract_lf", "5 demos", 0.3),
+           row("block_threading", "bimanualshift", "5 demos", 0.6), row("block_threading", "peract_lf", "5 demos", 0.1),
+           row("block_threading", "bimanualshift", "15 demos", 0.9)]
+    targets = {t["target"].split(" at ")[0]: t for t in study_targets("realworld_few_shot", few)}
+    assert targets["vegetable sorting"]["met"] is True
+    assert "90 % vs peract_lf 30 %" in targets["vegetable sorting"]["measured"]
+    assert targets["block threading"]["met"] is False  # 60 % < the paper's 65 %, though above PerAct-LF
+    assert targets["pouring water"]["met"] is None  # not built into the run
+    stages = (("insert", 1.0), ("press", 1.0), ("grasp", 0.8), ("place", 0.76))
+    long = [row("serve_toast", "bimanualshift", "long task", 0.76, stages),
+            row("serve_toast", "no_retrieval", "long task", 0.6, (("insert", 1.0), ("press", 1.0), ("grasp", 0.8),
+                                                                 ("place", 0.6)))]
+    first, second = study_targets("realworld_long_horizon", long)
+    assert first["met"] is True and first["measured"] == "76 %"
+    assert second["met"] is False and second["measured"] == "grasp 80 % vs 80 %; place 76 % vs 60 %"
