@@ -17,11 +17,9 @@ SCRIPT = re.compile(r"benchmarks/[\w/]+\.py")
 
 
 def recorded_commands() -> list[tuple[str, str]]:
-    """(result file, command) for every current result file (a re-run's `superseded/` rows are history)."""
+    """(result file, command) for every result file, superseded runs' included."""
     found = []
     for path in sorted((ROOT / "results").rglob("*.json")):
-        if "superseded" in path.parts:
-            continue
         try:
             result = json.loads(path.read_text())
         except (UnicodeDecodeError, json.JSONDecodeError):

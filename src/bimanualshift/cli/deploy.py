@@ -87,6 +87,8 @@ def deploy(args: DeployArgs) -> None:
     from bimanualshift.evaluation.report import write_result
     from bimanualshift.evaluation.stats import wilson_interval
 
+    if args.chunk_steps < 1:
+        raise ValueError(f"--chunk-steps {args.chunk_steps}: give 1 (ask at every keyframe) or more")
     started = time.time()
     client = PolicyClient(args.server, read_token(args.token_file))
     seeds = split_seeds(args.split, args.episodes)
