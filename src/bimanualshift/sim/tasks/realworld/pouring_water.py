@@ -112,6 +112,8 @@ class PouringTask(Task):
 @register_task("pouring_water")
 class PouringWater(PouringTask):
     bimanual = True
+    tier = "Collaboration"
+    paper_keyframes = 4
 
     def scene_xml(self) -> str:
         return cup_xml("cup_held") + cup_xml("cup_full") + water_xml()
