@@ -19,6 +19,18 @@ def test_shipped_priors_resolve_by_name_and_unknown_names_fail_clearly(tmp_path:
     assert resolve_prior_path("dp_suite_v1").name == "dp_suite"
 
 
+def test_an_install_without_the_repositorys_checkpoints_says_where_they_are(tmp_path: Path,
+                                                                        monkeypatch: pytest.MonkeyPatch) -> None:
+    from bimanualshift.priors.base import SHIPPED_DIR, SHIPPED_ENV
+
+    monkeypatch.setenv(SHIPPED_ENV, str(tmp_path / "nowhere"))  # as a wheel: no checkpoints/ beside the package
+    with pytest.raises(FileNotFoundError, match="this install has no shipped priors.*BIMANUALSHIFT_CHECKPOINTS"):
+        resolve_prior_path("peract_suite_v2")
+    assert shipped_priors() == []
+    monkeypatch.setenv(SHIPPED_ENV, str(SHIPPED_DIR))  # pointed at a clone's checkpoints/
+    assert resolve_prior_path("peract_suite_v2") == SHIPPED_DIR / "peract_suite_v2"
+
+
 def test_named_sizes_reject_unknown_names() -> None:
     assert prior_model_config("peract", "debug")["voxel_size"] == 16
     with pytest.raises(ValueError, match="choose from"):

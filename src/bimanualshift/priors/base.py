@@ -20,6 +20,7 @@ checkpoint can be loaded by its name (``UnimanualPrior.from_pretrained("peract_s
 from __future__ import annotations
 
 import json
+import os
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -213,14 +214,22 @@ class UnimanualPrior(nn.Module):
         return model
 
 
+# The shipped priors live in the repository's checkpoints/ folder, not in a wheel; BIMANUALSHIFT_CHECKPOINTS points an
+# installed package at a clone's (or any folder of prior checkpoints).
+SHIPPED_ENV = "BIMANUALSHIFT_CHECKPOINTS"
 SHIPPED_DIR = Path(__file__).resolve().parents[3] / "checkpoints"
 
 
+def shipped_dir() -> Path:
+    return Path(os.environ[SHIPPED_ENV]) if os.environ.get(SHIPPED_ENV) else SHIPPED_DIR
+
+
 def shipped_priors() -> list[str]:
-    """Names of the prior checkpoints shipped in the repository's ``checkpoints/`` folder."""
-    if not SHIPPED_DIR.is_dir():
+    """Names of the prior checkpoints in the repository's ``checkpoints/`` folder (or $BIMANUALSHIFT_CHECKPOINTS)."""
+    folder = shipped_dir()
+    if not folder.is_dir():
         return []
-    return sorted(p.name for p in SHIPPED_DIR.iterdir() if (p / "config.json").is_file())
+    return sorted(p.name for p in folder.iterdir() if (p / "config.json").is_file())
 
 
 # Versioned names of the checkpoints shipped before the single-arm suite was widened (their folders keep their
@@ -238,8 +247,14 @@ def resolve_prior_path(name_or_path: str | Path) -> Path:
     if path.is_dir():
         return path
     path = Path(VERSIONED_PRIORS.get(str(name_or_path), str(name_or_path)))
-    if len(path.parts) == 1 and (SHIPPED_DIR / path).is_dir():
-        return SHIPPED_DIR / path
+    folder = shipped_dir()
+    if len(path.parts) == 1 and (folder / path).is_dir():
+        return folder / path
+    if not folder.is_dir():  # an installed package: the shipped priors stayed in the repository
+        raise FileNotFoundError(f"no prior checkpoint directory {name_or_path!r}, and this install has no shipped "
+                                f"priors ({folder} does not exist: they live in the repository's checkpoints/ folder, "
+                                f"not in the package). Give a folder, an hf://ORG/NAME reference, or set {SHIPPED_ENV} "
+                                "to a clone's checkpoints/")
     raise FileNotFoundError(f"no prior checkpoint directory {name_or_path!r} and no shipped prior of that name; "
                             f"shipped: {shipped_priors()} (a prior on the hub: hf://ORG/NAME)")
 
