@@ -88,6 +88,17 @@ def hand_down(yaw: float) -> np.ndarray:
     return q if q[3] >= 0 else -q
 
 
+def across(yaw: float) -> float:
+    """The hand's yaw for fingers closing across something turned by ``yaw`` (a handle, a lever, a slice):
+    whichever of the two ways round is nearer the hand's own, so an object turned round costs no half turn."""
+    return shorter_turn(yaw + np.pi / 2, np.pi / 2)
+
+
+def grasp_from_above(grip: np.ndarray, quat: np.ndarray) -> list[ArmAction]:
+    """Open, 8 cm above ``grip``; then closed on it (collisions checked once the fingers are down)."""
+    return [ArmAction(grip + [0, 0, 0.08], quat, 1.0, 1.0), ArmAction(grip, quat, 0.0, 0.0)]
+
+
 def rod_grip(sim: SimHandle, away: float = 1.0) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
     """Where a hand grips the rod lying on the table (near its middle, towards its end on the ``away`` side of
     the table's centre line, +1 left, -1 right; fingers across it), how it is turned, where it holds the rod

@@ -20,7 +20,7 @@ from bimanualshift.sim.props.cups import (
 )
 from bimanualshift.sim.props.toaster import to_world, yaw_of
 from bimanualshift.sim.task import ArmAction, Keyframe, SimHandle, Task, register_task
-from bimanualshift.sim.tasks.realworld.block_threading import hand_down, shorter_turn
+from bimanualshift.sim.tasks.realworld.block_threading import across, grasp_from_above, hand_down
 
 TARGET_REGION = ((-0.06, 0.04), (0.0, 0.06))
 SOURCE_REGION = ((-0.04, 0.04), (-0.24, -0.18))
@@ -38,20 +38,14 @@ GRIP_BELOW_HANDLE_TOP = 0.012
 RIM_PINCH_DEPTH = 0.035  # the pads' centre this far below the rim
 
 
-def across(yaw: float) -> float:
-    """The hand's yaw for fingers closing across a handle turned by ``yaw``, the nearer way round."""
-    return shorter_turn(yaw + np.pi / 2, np.pi / 2)
-
-
 def handle_local() -> np.ndarray:
     """Where a hand grips a cup's handle, in the cup's frame."""
     return np.array([0.0, -(CUP_RADIUS + CUP_WALL + HANDLE_GRIP_OUT), CUP_HEIGHT - 0.01 - GRIP_BELOW_HANDLE_TOP])
 
 
-def handle_keyframes(sim: SimHandle, cup: str) -> tuple[ArmAction, ArmAction]:
-    grip = to_world(sim, cup, handle_local())
-    quat = hand_down(across(yaw_of(sim, cup)))
-    return ArmAction(grip + [0, 0, 0.08], quat, 1.0, 1.0), ArmAction(grip, quat, 0.0, 0.0)
+def handle_keyframes(sim: SimHandle, cup: str) -> list[ArmAction]:
+    """Above the cup's handle, then the fingers closed across it."""
+    return grasp_from_above(to_world(sim, cup, handle_local()), hand_down(across(yaw_of(sim, cup))))
 
 
 def rim_pinch(sim: SimHandle, cup: str) -> tuple[np.ndarray, np.ndarray]:
@@ -80,8 +74,7 @@ def pour_keyframes(sim: SimHandle, source: str, target: str) -> list[ArmAction]:
     # carried upright beside the pour, on the far side from where the mouth tips, its floor clear of the held rim
     carry = pour_at + [CARRY_BESIDE_POUR, 0.0, 0.0]
     carry[2] = max(pour_at[2], mouth[2] + CARRY_ABOVE_RIM - cup_from_grip[2])
-    return [ArmAction(grip + [0.0, 0.0, 0.08], quat, 1.0, 1.0), ArmAction(grip, quat, 0.0, 0.0),
-            ArmAction(carry, quat, 0.0, 1.0), ArmAction(pour_at, tipped_hand, 0.0, 1.0)]
+    return [*grasp_from_above(grip, quat), ArmAction(carry, quat, 0.0, 1.0), ArmAction(pour_at, tipped_hand, 0.0, 1.0)]
 
 
 class PouringTask(Task):

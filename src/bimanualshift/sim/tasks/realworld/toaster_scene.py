@@ -31,7 +31,7 @@ from bimanualshift.sim.props.toaster import (
     yaw_of,
 )
 from bimanualshift.sim.task import ArmAction, SimHandle, Task
-from bimanualshift.sim.tasks.realworld.block_threading import hand_down, shorter_turn
+from bimanualshift.sim.tasks.realworld.block_threading import across, grasp_from_above, hand_down, shorter_turn
 
 TOASTER_REGION = ((-0.08, 0.0), (0.02, 0.07))
 RACK_REGION = ((0.0, 0.08), (-0.26, -0.20))
@@ -129,18 +129,11 @@ def sample_xy(rng: np.random.Generator, region: tuple[tuple[float, float], tuple
 
 
 # ---- one arm's keyframes --------------------------------------------------------------------------------------
-def across(yaw: float) -> float:
-    """The hand's yaw for fingers closing across something turned by ``yaw`` (the handle, the lever, the slice):
-    whichever of the two ways round is nearer the hand's own, so a toaster turned round costs no half turn."""
-    return shorter_turn(yaw + np.pi / 2, np.pi / 2)
-
-
 def handle_keyframes(sim: SimHandle, holds: int) -> list[ArmAction]:
     """Above the handle, grip it (fingers across it), then hold still for ``holds`` more keyframes."""
     grip = to_world(sim, "toaster", [0.0, HALF_Y + HANDLE_GRIP_OUT, HEIGHT - HANDLE[2] - 0.012])
     quat = hand_down(across(yaw_of(sim, "toaster")))
-    return [ArmAction(grip + [0, 0, 0.08], quat, 1.0, 1.0), ArmAction(grip, quat, 0.0, 0.0),
-            *[ArmAction(grip, quat, 0.0, 0.0) for _ in range(holds)]]
+    return [*grasp_from_above(grip, quat), *[ArmAction(grip, quat, 0.0, 0.0) for _ in range(holds)]]
 
 
 def lever_keyframes(sim: SimHandle) -> list[ArmAction]:
@@ -170,8 +163,7 @@ def insert_keyframes(sim: SimHandle) -> list[ArmAction]:
     over = np.r_[slot, TABLE_TOP_Z + LIFT + SITE_ABOVE_BOTTOM]
     down = np.r_[slot, TABLE_TOP_Z + SLOT_FLOOR + 0.005 + SITE_ABOVE_BOTTOM]
     lifted = np.r_[grip[:2], TABLE_TOP_Z + LIFT + SITE_ABOVE_BOTTOM]
-    return [ArmAction(grip + [0, 0, 0.08], quat, 1.0, 1.0), ArmAction(grip, quat, 0.0, 0.0),
-            ArmAction(lifted, quat, 0.0, 1.0), ArmAction(over, level, 0.0, 1.0),
+    return [*grasp_from_above(grip, quat), ArmAction(lifted, quat, 0.0, 1.0), ArmAction(over, level, 0.0, 1.0),
             ArmAction(down, level, 0.0, 1.0), ArmAction(down, level, 1.0, 1.0)]
 
 
@@ -187,8 +179,8 @@ def place_keyframes(sim: SimHandle, toast: tuple[np.ndarray, float]) -> list[Arm
     plate = sim.body_pos("plate")
     over = np.r_[plate[:2], plate_floor_top() + 0.03 + SITE_ABOVE_BOTTOM]
     lifted = np.r_[grip[:2], TABLE_TOP_Z + LIFT + SITE_ABOVE_BOTTOM]
-    return [ArmAction(grip + [0, 0, 0.08], quat, 1.0, 1.0), ArmAction(grip, quat, 0.0, 0.0),
-            ArmAction(lifted, quat, 0.0, 1.0), ArmAction(over, quat, 0.0, 1.0), ArmAction(over, quat, 1.0, 1.0)]
+    return [*grasp_from_above(grip, quat), ArmAction(lifted, quat, 0.0, 1.0), ArmAction(over, quat, 0.0, 1.0),
+            ArmAction(over, quat, 1.0, 1.0)]
 
 
 def toast_on_plate(sim: SimHandle) -> bool:
