@@ -280,8 +280,9 @@ def run_study(name: str, overrides: dict[str, Any] | None = None, root: str = "r
         seeds = {**seeds, **{f"{label} {k}": v for k, v in result["seeds"].items()}}
         runs.append((label, result["rows"]))
         configs.append({"run": label, **asdict(cfg)})
-        run_episodes[label] = tabulated_episodes(cfg)
-        episodes += run_episodes[label]
+        recorded = tabulated_episodes(cfg)
+        run_episodes.setdefault(label, []).extend(recorded)  # runs may share a label (Table I's two halves)
+        episodes += recorded
     labelled = len({label for label, _ in plan}) > 1
     rows = combined_rows(runs, labelled=labelled)
     out = Path(root) / name

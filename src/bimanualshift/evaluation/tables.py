@@ -210,21 +210,21 @@ def row_label(row: dict[str, Any]) -> str:
             + (f" ({row['perturbation']})" if "perturbation" in row else ""))
 
 
-TIERED_STUDIES = ("realworld",)  # laid out as the paper's Table II: a row per task, grouped by tier
 TIER_ORDER = ("Coordination", "Collaboration", "Precision")
-
-
-STAGE_AVERAGE_STUDIES = ("realworld_generalisation",)  # laid out as the paper's Table III
 
 
 def study_table(study: str, rows: list[dict[str, Any]]) -> str:
     """A study's success table: Table II's tiered layout for the real-world study, Table III's stage averages for
     its generalisation study, Table I's for the others."""
-    if study in TIERED_STUDIES:
-        return tiered_table(rows)
-    if study in STAGE_AVERAGE_STUDIES:
-        return stage_average_table(rows)
-    return bench_table(rows)
+    layouts = {"realworld": tiered_table, "realworld_generalisation": stage_average_table}
+    return layouts.get(study, bench_table)(rows)
+
+
+def rate_cell(row: dict[str, Any] | None) -> str:
+    """A success rate and its 95 % interval in percent, "45 (36–55)"; "–" where nothing was measured."""
+    if row is None:
+        return "–"
+    return f"{100 * row['success']:.0f} ({100 * row['ci95'][0]:.0f}–{100 * row['ci95'][1]:.0f})"
 
 
 def stage_average(row: dict[str, Any]) -> float:
@@ -285,16 +285,14 @@ def tiered_table(rows: list[dict[str, Any]]) -> str:
     order = {tier: i for i, tier in enumerate(TIER_ORDER)}
     tasks.sort(key=lambda t: order.get(tiers[t][0], len(order)))  # stable: the study's order within a tier
 
-    def text(r: dict[str, Any] | None) -> str:
-        return "–" if r is None else f"{100 * r['success']:.0f} ({100 * r['ci95'][0]:.0f}–{100 * r['ci95'][1]:.0f})"
-
     lines = ["| tier | task | keyframes | " + " | ".join(labels) + " |", "|---|---|---|" + "---|" * len(labels)]
     for task in tasks:
         tier, keyframes = tiers[task]
         lines.append(f"| {tier or '–'} | {task.replace('_', ' ')} | {keyframes or '–'} | "
-                     + " | ".join(text(cell.get((label, task))) for label in labels) + " |")
+                     + " | ".join(rate_cell(cell.get((label, task))) for label in labels) + " |")
     if any(r["task"] == "average" for r in rows):
-        lines.append("| – | average | – | " + " | ".join(text(cell.get((label, "average"))) for label in labels) + " |")
+        lines.append("| – | average | – | " + " | ".join(rate_cell(cell.get((label, "average"))) for label in labels)
+                     + " |")
     return "\n".join(lines) + "\n"
 
 
@@ -305,12 +303,7 @@ def bench_table(rows: list[dict[str, Any]]) -> str:
     cell = {(row_label(r), r["task"]): r for r in rows}
     lines = ["| method | " + " | ".join(t.replace("_", " ") for t in tasks) + " |", "|---|" + "---|" * len(tasks)]
     for method in methods:
-        cells = []
-        for task in tasks:
-            r = cell.get((method, task))
-            cells.append("–" if r is None else
-                         f"{100 * r['success']:.0f} ({100 * r['ci95'][0]:.0f}–{100 * r['ci95'][1]:.0f})")
-        lines.append(f"| {method} | " + " | ".join(cells) + " |")
+        lines.append(f"| {method} | " + " | ".join(rate_cell(cell.get((method, task))) for task in tasks) + " |")
     return "\n".join(lines) + "\n"
 
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 from typing import Any
 
 from bimanualshift.evaluation.stats import pair_by_scene, paired_sign_test
+from bimanualshift.evaluation.tables import degradation_rates, stage_average
 from bimanualshift.registry import methods_with_role
 
 FULL = "bimanualshift"
@@ -183,13 +184,9 @@ def realworld_targets(rows: list[dict[str, Any]], paired: dict[str, dict[str, An
     return out
 
 
-
-
 def generalisation_targets(rows: list[dict[str, Any]], rival: str = "peract_lf") -> list[dict[str, Any]]:
     """Table III's: the full method's stage average above the rival's under every condition, and its relative
     degradation below the rival's under at least 5 of the 7 perturbations."""
-    from bimanualshift.evaluation.tables import degradation_rates, stage_average
-
     avg = {(r["method"], r.get("perturbation", "none")): stage_average(r) for r in rows}
     conditions = list(dict.fromkeys(r.get("perturbation", "none") for r in rows))
     both = [c for c in conditions if (FULL, c) in avg and (rival, c) in avg]

@@ -364,16 +364,12 @@ class ManipulationEnv(gym.Env):
             if still_steps >= 6:
                 break
         changed = [arm for arm in self.arm_names if targets[arm].gripper_open != self.gripper_open[arm]]
-        if changed:
-            for arm in changed:
-                self.gripper_open[arm] = targets[arm].gripper_open
-            final_rot = {arm: canonical_quat(targets[arm].quat) for arm in self.arm_names}
-            for _ in range(12):
-                self._control_step(self._robot_command(cmd_pos, final_rot))
-        if self.task.hold_steps:
-            held = {arm: canonical_quat(targets[arm].quat) for arm in self.arm_names}
-            for _ in range(self.task.hold_steps):
-                self._control_step(self._robot_command(cmd_pos, held))
+        for arm in changed:
+            self.gripper_open[arm] = targets[arm].gripper_open
+        final_rot = {arm: canonical_quat(targets[arm].quat) for arm in self.arm_names}
+        # the grippers switch over 12 steps; a task whose objects keep moving holds the pose longer
+        for _ in range((12 if changed else 0) + self.task.hold_steps):
+            self._control_step(self._robot_command(cmd_pos, final_rot))
         return reached
 
     def _pose_error(self, robot_index: int, target: ArmAction, tol_m: float = 0.006, tol_rad: float = 0.06) -> bool:
