@@ -173,6 +173,9 @@ class Task(ABC):
     # Control steps (50 ms each) the arms hold a keyframe's pose once they reach it, for tasks whose objects keep
     # moving after the hands stop (poured balls still falling); 0 moves on at once, as RLBench does.
     hold_steps: ClassVar[int] = 0
+    # Bodies named with this prefix are particles (poured balls): each settles where the physics puts it, so layout
+    # checks compare where they are together (their mean), not one by one.
+    particle_prefix: ClassVar[str] = ""
 
     def __init__(self, perturbations: Perturbations | None = None) -> None:
         self.perturbations = perturbations or Perturbations()

@@ -83,6 +83,7 @@ class PouringTask(Task):
     robot = "ur5e"
     mirrored_by_half_turn = ("cup_full", "cup_held")  # a cup's mirror image has its handle on the other side
     hold_steps = 16  # 0.8 s: the balls leave the tipped cup and land before the next keyframe (or the end)
+    particle_prefix = "water_"
 
     def instruction(self) -> str:
         return "hold the cup and pour the water into it"
