@@ -118,7 +118,8 @@ def _residual_method(name: str, description: str, refine: bool = True, trains_as
         own = {k: v for k, v in request.overrides.items() if not k.startswith("refine_")}
         cfg = config_from_flat(TrainConfig, task=request.task, prior=request.prior, data=request.data,
                                validation_data=request.validation_data, out=request.out, demos=request.demos,
-                               steps=request.steps, seed=request.seed, log=request.log, **{**switches, **own})
+                               steps=request.steps, seed=request.seed, log=request.log, select_workers=request.workers,
+                               **{**switches, **own})
         best = _finished(Path(request.out)) or train_residual(cfg)
         if not refine:
             return best
@@ -181,6 +182,10 @@ register_method(_residual_method(
     "corrections join the validation loss that picks the fine-tuning step, which the demos' L_BC alone sets back to "
     "the unrefined weights on most tasks (compare with bimanualshift and no_refinement on validation seeds)",
     trains_as="bimanualshift", retrieval=True, refine_validation=10))
+register_method(_residual_method(
+    "closed_loop_choice", "variant: the full method whose residual checkpoint is chosen by rollouts: the 4 with the "
+    "lowest validation error each roll out 30 validation scenes of their own and the most successful one is refined "
+    "(compare with bimanualshift on validation seeds)", retrieval=True, select_rollouts=30, select_candidates=4))
 register_method(_residual_method(
     "paper_literal", "ablation: the residual moves translation and rotation only (Eq. 4 as written: no gripper "
     "residual, no hold)", retrieval=True, paper_literal=True, role="ablation"))

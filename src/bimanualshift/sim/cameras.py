@@ -113,18 +113,12 @@ class CameraRig:
         missing = [name for name, cam in self._camera_ids.items() if cam < 0]
         if missing:
             raise KeyError(f"camera(s) {missing} are not in the scene")
-        self._gl: mujoco.GLContext | None = mujoco.GLContext(width, height)
-        self._gl.make_current()
-        self._context = mujoco.MjrContext(model, mujoco.mjtFontScale.mjFONTSCALE_150)
-        mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN, self._context)
-        self._context.readDepthMap = mujoco.mjtDepthMap.mjDEPTH_ZEROFAR
-        # Freed by close(), or when the rig is collected, or at exit. The finaliser holds the contexts, not the rig:
-        # an exit hook on ``self.close`` kept every rig (and its model) alive for the whole process, ~135 MB per
-        # environment created. At exit it runs from a hook registered after the context was made, so before the one
-        # with which mujoco terminates the EGL display (exit hooks run last-registered first).
-        self._release = weakref.finalize(self, _free_gl, self._gl, self._context)
-        self._release.atexit = False
-        atexit.register(self._release)
+        # The OpenGL context (and the model's meshes uploaded into it, ~0.6 s) is made at the first render: an
+        # environment that is only reset and stepped (coverage, experts without frames) never pays for it.
+        self._gl: mujoco.GLContext | None = None
+        self._context: mujoco.MjrContext | None = None
+        self._release: weakref.finalize | None = None
+        self._closed = False
         self._scene = mujoco.MjvScene(model, maxgeom=10_000)
         for flag in (mujoco.mjtRndFlag.mjRND_SHADOW, mujoco.mjtRndFlag.mjRND_REFLECTION,
                      mujoco.mjtRndFlag.mjRND_SKYBOX):
@@ -158,10 +152,27 @@ class CameraRig:
         out[:3, 3] = cam.xpos
         return out
 
-    def _update_scene(self, data: mujoco.MjData, name: str) -> None:
-        if self._gl is None:
+    def _open(self) -> mujoco.GLContext:
+        if self._closed:
             raise RuntimeError("this camera rig was closed; create a new environment to render")
-        self._gl.make_current()  # several environments (each with its own context) may share a process
+        if self._gl is None:
+            gl = mujoco.GLContext(self.width, self.height)
+            gl.make_current()
+            self._context = mujoco.MjrContext(self.model, mujoco.mjtFontScale.mjFONTSCALE_150)
+            mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN, self._context)
+            self._context.readDepthMap = mujoco.mjtDepthMap.mjDEPTH_ZEROFAR
+            self._gl = gl
+            # Freed by close(), or when the rig is collected, or at exit. The finaliser holds the contexts, not the
+            # rig: an exit hook on ``self.close`` kept every rig (and its model) alive for the whole process,
+            # ~135 MB per environment created. At exit it runs from a hook registered after the context was made,
+            # so before the one with which mujoco terminates the EGL display (exit hooks run last-registered first).
+            self._release = weakref.finalize(self, _free_gl, gl, self._context)
+            self._release.atexit = False
+            atexit.register(self._release)
+        return self._gl
+
+    def _update_scene(self, data: mujoco.MjData, name: str) -> None:
+        self._open().make_current()  # several environments (each with its own context) may share a process
         self._camera.fixedcamid = self._camera_ids[name]
         mujoco.mjv_updateScene(self.model, data, self.option, None, self._camera, mujoco.mjtCatBit.mjCAT_ALL,
                                self._scene)
@@ -218,6 +229,8 @@ class CameraRig:
         return self._colour_pass()
 
     def close(self) -> None:
-        self._release()  # runs once; later calls do nothing
-        atexit.unregister(self._release)
-        self._gl = None
+        self._closed = True
+        if self._release is not None:
+            self._release()  # runs once; later calls do nothing
+            atexit.unregister(self._release)
+        self._gl = self._context = None

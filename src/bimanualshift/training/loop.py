@@ -49,13 +49,15 @@ def run_training(run_dir: str | Path, model: nn.Module, optimizer: torch.optim.O
                  validate_fn: ValidateFn | None = None, on_best: Callable[[int, float, float], None] | None = None,
                  desc: str = "train", ctx: Distributed | None = None,
                  lr_factor: Callable[[int], float] | None = None, patience: int = 0,
-                 logger: MetricLogger | None = None) -> dict[str, Any]:
+                 logger: MetricLogger | None = None,
+                 on_validated: Callable[[int, float], None] | None = None) -> dict[str, Any]:
     """Train for ``steps``; with ``ctx`` (several ``torchrun`` processes) every rank steps, losses are logged as
     their mean over the ranks, and only rank 0 validates and writes. ``lr_factor(step)`` scales every parameter
     group's learning rate at each step (a schedule; computed from the step, so resuming continues it).
     ``patience`` > 0 (one process only) stops early once that many checkpoints in a row have not improved on the
     best validation value; a resumed run that had stopped stays stopped. ``logger`` (rank 0) receives every step's
-    loss terms, learning rate and step time, and every checkpoint's validation figures."""
+    loss terms, learning rate and step time, and every checkpoint's validation figures. ``on_validated(step,
+    value)`` sees every validated checkpoint, the untrained one included (the closed-loop choice keeps candidates)."""
     if patience and ctx is not None and ctx.enabled:
         raise ValueError("early stopping (patience) runs in one process; use patience 0 under torchrun")
     ctx = ctx or Distributed()
@@ -80,6 +82,8 @@ def run_training(run_dir: str | Path, model: nn.Module, optimizer: torch.optim.O
         logger.scalars(0, _validation_scalars(history[-1]))
         if on_best is not None:
             on_best(0, best["value"], 0.0)
+        if on_validated is not None:
+            on_validated(0, value)
     bar = tqdm(range(start, steps), initial=start, total=steps, desc=desc, unit="step", disable=not ctx.is_main)
     # Losses are logged as their mean over the steps since the last checkpoint (one batch's value is too noisy
     # to tell a stage that learns from one that does not); the sums restart at every checkpoint, so a resumed
@@ -126,6 +130,8 @@ def run_training(run_dir: str | Path, model: nn.Module, optimizer: torch.optim.O
                     best = {"step": done, "value": value}
                     if on_best is not None:
                         on_best(done, value, elapsed)
+                if on_validated is not None:
+                    on_validated(done, value)
             history.append(record)
             logger.scalars(done, _validation_scalars(record))
             save_checkpoint(run_dir, done, model, optimizer, {"history": history, "best": best, "elapsed_s": elapsed})

@@ -29,6 +29,7 @@ from bimanualshift.residual.output_gate import choose_output_scale, reset_output
 from bimanualshift.residual.skills import SkillBasis
 from bimanualshift.training.augment import Se3Augmentation
 from bimanualshift.training.checkpoint import latest_checkpoint
+from bimanualshift.training.closed_loop_choice import candidate_folders, choose_by_rollouts, keep_candidate
 from bimanualshift.training.configs import TrainConfig
 from bimanualshift.training.loop import run_training
 from bimanualshift.training.metric_log import open_logger
@@ -87,7 +88,7 @@ def load_earlier(init_from: str, rcfg: ResidualConfig, retrieval: bool
 
 
 # What a resumed run may change: more steps extend it; the demos' folders may move.
-RESUMABLE_CHANGES = ("optim.steps", "optim.log", "dataset.data", "dataset.validation_data", "out")
+RESUMABLE_CHANGES = ("optim.steps", "optim.log", "dataset.data", "dataset.validation_data", "out", "select_workers")
 
 
 def changed_settings(cfg: TrainConfig) -> list[str]:
@@ -161,6 +162,9 @@ def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Pat
     out = Path(cfg.out)
     if cfg.select_by not in SELECT_BY:
         raise ValueError(f"--select-by must be one of {SELECT_BY}, got {cfg.select_by!r}")
+    if cfg.select_rollouts < 0 or cfg.select_candidates < 1:
+        raise ValueError(f"--select-rollouts must be >= 0 and --select-candidates >= 1, got {cfg.select_rollouts} "
+                         f"and {cfg.select_candidates}")
     changed = changed_settings(cfg)
     if changed:
         raise ValueError(f"{out} holds a residual run trained with other settings ({', '.join(changed)}); resuming "
@@ -241,26 +245,51 @@ def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Pat
         save_residual(out / "best", residual, {**checkpoint_meta, "trained_steps": step, "validation_loss": value},
                       memory)
 
+    def on_validated(step: int, value: float) -> None:  # --select-rollouts: the candidates the rollouts compare
+        keep_candidate(out, step, value, cfg.select_candidates, lambda folder: save_residual(
+            folder, residual, {**checkpoint_meta, "trained_steps": step, "validation_loss": value}, memory))
+
+    def gate(folder: Path) -> dict[str, Any]:
+        """Choose the output gate's scales for the checkpoint in ``folder`` on the validation demos and save them
+        into it; leaves ``residual`` holding that checkpoint."""
+        residual.load_state_dict(load_safetensors(folder / "model.safetensors"))
+        if not rcfg.output_gate:
+            return {}
+        reset_output_scale(residual)
+        ungated = translation_report(residual, val)
+        chosen = {"output_gate": {**choose_output_scale(residual, val.inputs, val.translation, val.rotation),
+                                  "validation_translation_error_ungated": ungated}}
+        saved = json.loads((folder / "config.json").read_text())
+        meta = {k: v for k, v in saved.items() if k not in ("type", "residual")}
+        save_residual(folder, residual, {**meta, "output_scale": chosen["output_gate"]}, memory)
+        return chosen
+
     with open_logger(optim.log, out, asdict(cfg)) as logger:
         result = run_training(out, residual, optimizer, optim.steps, step_fn, optim.seed, optim.checkpoint_every,
                               validate, on_best, desc="train residual", patience=optim.patience, logger=logger,
-                              lr_factor=lambda step: lr_factor(optim.schedule, step, optim.steps, optim.warmup_steps))
-        if (out / "best" / "model.safetensors").is_file():  # report on the checkpoint the run hands on
+                              lr_factor=lambda step: lr_factor(optim.schedule, step, optim.steps, optim.warmup_steps),
+                              on_validated=on_validated if cfg.select_rollouts else None)
+        gated: dict[str, Any] = {}
+        choice: dict[str, Any] = {}
+        if cfg.select_rollouts:  # every candidate gated as best/ would be, then rolled out; the winner is best/
+            for folder in candidate_folders(out):
+                if "output_scale" not in json.loads((folder / "config.json").read_text()):
+                    gate(folder)
+            choice = {"closed_loop_choice": choose_by_rollouts(out, data.task, cfg.select_rollouts,
+                                                               cfg.select_workers)}
             residual.load_state_dict(load_safetensors(out / "best" / "model.safetensors"))
-        gate = {}
-        if rcfg.output_gate:
-            reset_output_scale(residual)
-            ungated = translation_report(residual, val)
-            gate = {"output_gate": {**choose_output_scale(residual, val.inputs, val.translation, val.rotation),
-                                    "validation_translation_error_ungated": ungated}}
-            logger.scalars(optim.steps, gate)  # the gate's choice: the scale kept per output, and its errors
-            best = json.loads((out / "best" / "config.json").read_text())
-            meta = {k: v for k, v in best.items() if k not in ("type", "residual")}
-            save_residual(out / "best", residual, {**meta, "output_scale": gate["output_gate"]}, memory)
+            saved_gate = json.loads((out / "best" / "config.json").read_text()).get("output_scale")
+            gated = {"output_gate": saved_gate} if saved_gate else {}
+            logger.scalars(optim.steps, {"closed_loop_choice": {
+                "chosen_step": choice["closed_loop_choice"]["chosen_step"]}})
+        elif (out / "best" / "model.safetensors").is_file():  # report on the checkpoint the run hands on
+            gated = gate(out / "best")
+            if gated:
+                logger.scalars(optim.steps, gated)  # the gate's choice: the scale kept per output, and its errors
     atomic_write_json(out / "summary.json", {**result, "wall_time_s": round(time.time() - started, 1),
                                              "train_samples": len(train.inputs),
                                              "validation_translation_error": translation_report(residual, val),
                                              "validation_rotation_error": rotation_report(residual, val),
-                                             **gate, **instruction_choice,
+                                             **gated, **choice, **instruction_choice,
                                              **({"roles": roles} if roles else {})})
     return out / "best"
