@@ -183,9 +183,10 @@ register_method(_residual_method(
     "the unrefined weights on most tasks (compare with bimanualshift and no_refinement on validation seeds)",
     trains_as="bimanualshift", retrieval=True, refine_validation=10))
 register_method(_residual_method(
-    "closed_loop_choice", "variant: the full method whose residual checkpoint is chosen by rollouts: the 4 with the "
-    "lowest validation error each roll out 30 validation scenes of their own and the most successful one is refined "
-    "(compare with bimanualshift on validation seeds)", retrieval=True, select_rollouts=30, select_candidates=4))
+    "closed_loop_choice", "variant: the full method before refinement whose checkpoint is chosen by rollouts: the 4 "
+    "with the lowest validation error each roll out 30 validation scenes of their own and the most successful one is "
+    "kept (compare with no_refinement on validation seeds)", refine=False, retrieval=True, select_rollouts=30,
+    select_candidates=4))
 register_method(_residual_method(
     "paper_literal", "ablation: the residual moves translation and rotation only (Eq. 4 as written: no gripper "
     "residual, no hold)", retrieval=True, paper_literal=True, role="ablation"))
