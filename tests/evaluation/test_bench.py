@@ -398,3 +398,26 @@ def test_a_plot_title_names_the_split_its_episodes_come_from() -> None:
     assert "30 validation episodes per task" in plot_title(
         {"rows": rows, "seeds": {"train": [0], "validation": [2], "validation_rollouts": [3]}})
     assert plot_title({"rows": rows, "study": "backbones"}) == "study backbones"
+
+
+def test_a_process_running_two_benchmarks_builds_each_ones_frozen_prior(tmp_path: Path,
+                                                                        monkeypatch: pytest.MonkeyPatch) -> None:
+    """Episodes of the checkpoint-less frozen prior run in one process for two priors: each gets its own policy
+    (the process cache once handed the first prior's policy to the second benchmark)."""
+    import bimanualshift.evaluation.bench as bench_module
+    from bimanualshift.evaluation.bench import BenchJob, run_bench_episode
+
+    built: list[str] = []
+    real = get_method("frozen_prior_per_arm")
+
+    def load(checkpoint, request):  # noqa: ANN001, ANN202
+        built.append(request.prior)
+        return real.load(checkpoint, request)
+
+    monkeypatch.setattr(bench_module, "get_method", lambda name: replace(real, load=load))
+    for prior in ("peract_suite", "peract_suite_v2", "peract_suite"):
+        request = {"task": "push_two_buttons", "data": "", "validation_data": "", "demos": 1, "prior": prior,
+                   "out": str(tmp_path), "steps": 1}
+        run_bench_episode(BenchJob("frozen_prior_per_arm", "push_two_buttons", 200_000, "", request,
+                                   max_keyframes=1))
+    assert built == ["peract_suite", "peract_suite_v2"]  # the third episode reuses the first prior's policy

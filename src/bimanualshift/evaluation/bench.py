@@ -240,7 +240,10 @@ def run_bench_episode(job: BenchJob) -> dict[str, Any]:
 
     torch.set_num_threads(1)  # one process per core
     env = cached_env(job.task, job.perturbation)
-    policy = cached(("policy", job.method, job.task, job.checkpoint), lambda: get_method(job.method).load(
+    # keyed by the whole request too: a method without a checkpoint (the frozen prior) is built from its prior, so two
+    # benchmarks run in one process with other priors must not share it
+    key = ("policy", job.method, job.task, job.checkpoint, json.dumps(job.request, sort_keys=True, default=str))
+    policy = cached(key, lambda: get_method(job.method).load(
         Path(job.checkpoint) if job.checkpoint else None, TrainRequest(**job.request)))
     budget = episode_budget(env, job.seed, job.max_keyframes)
     recorder = None
