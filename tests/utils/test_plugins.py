@@ -25,9 +25,8 @@ def test_a_user_task_and_prior_work_in_collect_pretrain_and_worker_processes(
         tmp_path: Path, clean_plugin_env: None, capsys: pytest.CaptureFixture[str]) -> None:
     main(["--plugin", TASK, "tasks"])
     assert "grasp_hammer" in capsys.readouterr().out  # its <asset> section compiled: robosuite's hammer materials
-    # two spawned workers import the plugin from the environment the command set
     main(["--plugin", TASK, "collect", "--task", "grasp_hammer", "--episodes", "3", "--out", str(tmp_path / "d"),
-          "--workers", "2", "--image-size", "32"])
+          "--image-size", "32"])
     assert len(list((tmp_path / "d" / "grasp_hammer").glob("*.h5"))) >= 2
     model = json.dumps({"voxel_size": 16, "patch_size": 4, "dim": 32, "num_latents": 8, "self_attention_layers": 1,
                         "heads": 2})
@@ -37,6 +36,7 @@ def test_a_user_task_and_prior_work_in_collect_pretrain_and_worker_processes(
     config = json.loads((tmp_path / "p" / "best" / "config.json").read_text())
     assert config["type"] == "peract_dropout" and config["proprio_dropout"] == 0.1
     out = tmp_path / "report.json"
+    # two spawned workers import both plugins (the task and the prior type) from the environment the command set
     main(["--plugin", TASK, "--plugin", PRIOR, "prior-report", "--prior", str(tmp_path / "p" / "best"),
           "--task", "grasp_hammer", "--episodes", "2", "--workers", "2", "--out", str(out)])
     (row,) = json.loads(out.read_text())["rows"]
