@@ -11,7 +11,8 @@ same seed), the distance to the expert's pose is split into the chain that produ
 - ``executor``: where the arm ended against where it was sent (``reached`` against ``executed``);
 - ``reached``: where the arm ended against the expert's pose: what the task sees.
 
-Each is given as median and quartiles in cm and degrees, per task and over all of them, with the share of grasps
+Rotations are measured to the expert's grasp or its half-turn twin about the gripper's axis, whichever is nearer
+(the same parallel grasp). Each is given as median and quartiles in cm and degrees, per task and over all of them, with the share of grasps
 within 1 cm and 5 degrees (the precision target). The prior alone in its own arm frame, on its pretraining suite,
 is ``prior-report``'s keyframe error (results/priors*.json). Nothing is rolled out; the folder's
 ``keyframes.jsonl`` must log ``reached`` (recorded since the executor started logging it).
@@ -28,6 +29,7 @@ from typing import Any
 import numpy as np
 
 from bimanualshift.evaluation.report import invoked_command, write_result
+from bimanualshift.geometry.frames import nearest_grasp_twin
 from bimanualshift.utils.jsonl import read_records
 from bimanualshift.utils.pipes import quiet_on_closed_pipe
 
@@ -39,6 +41,12 @@ def angle_deg(q1: np.ndarray, q2: np.ndarray) -> float:
     """The rotation between two (x, y, z, w) quaternions, in degrees (either sign of a quaternion is one pose)."""
     a, b = q1 / np.linalg.norm(q1), q2 / np.linalg.norm(q2)
     return float(np.degrees(2 * np.arccos(min(1.0, abs(float(np.dot(a, b)))))))
+
+
+def grasp_angle_deg(quat: np.ndarray, expert: np.ndarray) -> float:
+    """The rotation from ``quat`` to the expert's grasp or its half-turn twin about the gripper's axis, whichever is
+    nearer: a parallel gripper closes the same way in both."""
+    return angle_deg(quat, nearest_grasp_twin(expert, quat))
 
 
 def first_grasps(steps: list[dict[str, Any]]) -> dict[int, int]:
@@ -61,15 +69,16 @@ def grasp_errors(steps: list[dict[str, Any]]) -> list[dict[str, Any]]:
         arms_log = (row.get("policy") or {}).get("arms") or []
         if arm < len(arms_log) and arms_log[arm].get("prior") is not None:
             prior = np.asarray(arms_log[arm]["prior"])
-            terms["prior"] = (100 * float(np.linalg.norm(prior[:3] - expert[:3])), angle_deg(prior[3:7], expert[3:7]))
+            terms["prior"] = (100 * float(np.linalg.norm(prior[:3] - expert[:3])),
+                              grasp_angle_deg(prior[3:7], expert[3:7]))
         terms["policy"] = (100 * float(np.linalg.norm(executed[:3] - expert[:3])),
-                           angle_deg(executed[3:7], expert[3:7]))
+                           grasp_angle_deg(executed[3:7], expert[3:7]))
         if row.get("reached") is not None:
             reached = np.asarray(row["reached"][arm])
             terms["executor"] = (100 * float(np.linalg.norm(reached[:3] - executed[:3])),
                                  angle_deg(reached[3:7], executed[3:7]))
             terms["reached"] = (100 * float(np.linalg.norm(reached[:3] - expert[:3])),
-                                angle_deg(reached[3:7], expert[3:7]))
+                                grasp_angle_deg(reached[3:7], expert[3:7]))
         out.append({"arm": arm, "keyframe": int(row["keyframe"]), **terms})
     return out
 
