@@ -183,9 +183,9 @@ register_method(_residual_method(
     "the unrefined weights on most tasks (compare with bimanualshift and no_refinement on validation seeds)",
     trains_as="bimanualshift", retrieval=True, refine_validation=10))
 register_method(_residual_method(
-    "closed_loop_choice", "variant: the full method before refinement whose checkpoint is chosen by rollouts: the 4 "
-    "with the lowest validation error each roll out 30 validation scenes of their own and the most successful one is "
-    "kept (compare with no_refinement on validation seeds)", refine=False, retrieval=True, select_rollouts=30,
+    "closed_loop_choice", "variant: the full method before refinement whose checkpoint is chosen by rollouts: the "
+    "lowest validation error of each quarter of the run rolls out 30 validation scenes of its own and the most "
+    "successful one is kept (compare with no_refinement on validation seeds)", refine=False, retrieval=True, select_rollouts=30,
     select_candidates=4))
 register_method(_residual_method(
     "paper_literal", "ablation: the residual moves translation and rotation only (Eq. 4 as written: no gripper "

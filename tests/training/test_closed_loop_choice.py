@@ -30,12 +30,13 @@ def _writer(step: int, value: float):  # noqa: ANN202
     return save
 
 
-def test_the_candidates_are_the_lowest_values_seen(tmp_path: Path) -> None:
-    for step, value in ((0, 0.9), (2, 0.5), (4, 0.7), (6, 0.95), (8, 0.4)):
-        keep_candidate(tmp_path, step, value, keep=2, save=_writer(step, value))
+def test_each_stretch_of_the_run_keeps_its_lowest_value(tmp_path: Path) -> None:
+    # a 12-step run in 3 stretches: steps 0-3, 4-7, 8-12
+    for step, value in ((0, 0.9), (2, 0.5), (4, 0.7), (6, 0.95), (8, 0.4), (10, 0.3), (12, 0.35)):
+        keep_candidate(tmp_path, step, value, parts=3, total_steps=12, save=_writer(step, value))
     kept = [json.loads((f / "config.json").read_text())["trained_steps"] for f in candidate_folders(tmp_path)]
-    assert kept == [8, 2]  # lowest first; 0.7 was kept at step 4 and displaced at step 8
-    assert not keep_candidate(tmp_path, 10, 0.6, keep=2, save=_writer(10, 0.6))
+    assert kept == [10, 2, 4]  # lowest value first; 8 was kept, then displaced by 10 in its stretch
+    assert not keep_candidate(tmp_path, 6, 0.8, parts=3, total_steps=12, save=_writer(6, 0.8))
 
 
 def test_the_choice_is_the_most_successes_then_stages_then_the_lower_value() -> None:
@@ -68,12 +69,14 @@ def test_a_run_rolls_its_candidates_out_and_hands_on_the_most_successful(
     summary = json.loads((run / "summary.json").read_text())
     record = summary["closed_loop_choice"]
     folders = candidate_folders(run)
-    assert len(folders) == len(record["candidates"]) == 2  # 3 validated checkpoints (steps 0, 2, 4), 2 kept
+    # 3 validated checkpoints (steps 0, 2, 4) in 2 stretches: step 0 alone in the first, the lower of 2 and 4
+    assert len(folders) == len(record["candidates"]) == 2
     assert [r["episodes"] for r in record["candidates"]] == [2, 2]
     values = [r["validation_loss"] for r in record["candidates"]]
     assert values == sorted(values)
     history = {h["step"]: h["validation"] for h in summary["history"]}
-    assert values == sorted(history.values())[:2]  # the two lowest teacher-forced values
+    later = min((2, 4), key=lambda step: (history[step], step))
+    assert sorted(r["step"] for r in record["candidates"]) == [0, later]
     chosen = json.loads((best / "config.json").read_text())
     assert chosen["trained_steps"] == record["chosen_step"]
     for folder in folders:  # each candidate was rolled out on the selection scenes, and gated like best/

@@ -1,6 +1,6 @@
-"""Closed-loop checkpoint choice (`train --select-rollouts N`): the checkpoints with the lowest teacher-forced
-validation value are kept as candidates while the residual trains; afterwards each is rolled out on N validation
-scenes and the one that succeeds most becomes the run's ``best/``.
+"""Closed-loop checkpoint choice (`train --select-rollouts N`): while the residual trains, the checkpoint with the
+lowest teacher-forced validation value in each of K equal stretches of the run is kept as a candidate; afterwards
+each is rolled out on N validation scenes and the one that succeeds most becomes the run's ``best/``.
 
 A teacher-forced error scores each keyframe from the demo's own state; a rollout scores the whole episode from the
 policy's own states, where one early miss ends it. The two can disagree (a training seed's lift ball ranged 27-93 %
@@ -39,15 +39,24 @@ def candidate_folders(run: Path) -> list[Path]:
                                           int(read_json_file(f / "config.json")["trained_steps"])))
 
 
-def keep_candidate(run: Path, step: int, value: float, keep: int, save: Callable[[Path], None]) -> bool:
-    """Save the checkpoint of ``step`` (``save(folder)``) when its validation ``value`` is among the ``keep`` lowest
-    seen so far, dropping the candidate it displaces; returns whether it was kept."""
-    folders = candidate_folders(run)
-    values = [float(read_json_file(f / "config.json")["validation_loss"]) for f in folders]
-    if len(folders) >= keep and value >= values[keep - 1]:
+def segment(step: int, total_steps: int, parts: int) -> int:
+    """Which of ``parts`` equal stretches of a ``total_steps`` run ``step`` falls in (step 0 in the first)."""
+    return min(parts - 1, step * parts // max(total_steps, 1))
+
+
+def keep_candidate(run: Path, step: int, value: float, parts: int, total_steps: int,
+                   save: Callable[[Path], None]) -> bool:
+    """Keep the checkpoint of ``step`` (``save(folder)``) when its validation ``value`` is the lowest so far of its
+    stretch of the run (one of ``parts`` equal stretches), dropping the one it displaces; returns whether it was
+    kept. One candidate per stretch, not the ``parts`` lowest values: on a decaying learning rate those are the last
+    few checkpoints, nearly one set of weights, and rolling them all out would buy no choice."""
+    mine = segment(step, total_steps, parts)
+    rivals = [f for f in candidate_folders(run)
+              if segment(int(read_json_file(f / "config.json")["trained_steps"]), total_steps, parts) == mine]
+    if any(float(read_json_file(f / "config.json")["validation_loss"]) <= value for f in rivals):
         return False
     save(run / CANDIDATES_FOLDER / f"step_{step:06d}")
-    for dropped in candidate_folders(run)[keep:]:
+    for dropped in rivals:
         shutil.rmtree(dropped)
     return True
 

@@ -206,9 +206,10 @@ class TrainConfig:
     # over 5 cm plus mean rotation error clipped at 20 degrees over 20 degrees (each in [0, 1]; with beta = 1 the
     # squared rotation outweighs a centimetre's translation a hundredfold).
     select_by: str = "clipped_error"
-    # Closed-loop checkpoint choice (training/closed_loop_choice.py): > 0 keeps the select_candidates checkpoints
-    # with the lowest select_by value, rolls each out on this many validation scenes after training and hands on
-    # the one that succeeds most (ties: more stages, then the lower value). 0: the lowest value alone decides.
+    # Closed-loop checkpoint choice (training/closed_loop_choice.py): > 0 keeps the checkpoint with the lowest
+    # select_by value in each of select_candidates equal stretches of the run, rolls each out on this many
+    # validation scenes after training and hands on the one that succeeds most (ties: more stages, then the lower
+    # value). 0: the lowest value alone decides.
     select_rollouts: int = 0
     select_candidates: int = 4
     select_workers: int = 1  # processes rolling the candidates out (the same outcomes whatever the number)

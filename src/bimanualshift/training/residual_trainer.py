@@ -246,7 +246,7 @@ def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Pat
                       memory)
 
     def on_validated(step: int, value: float) -> None:  # --select-rollouts: the candidates the rollouts compare
-        keep_candidate(out, step, value, cfg.select_candidates, lambda folder: save_residual(
+        keep_candidate(out, step, value, cfg.select_candidates, optim.steps, lambda folder: save_residual(
             folder, residual, {**checkpoint_meta, "trained_steps": step, "validation_loss": value}, memory))
 
     def gate(folder: Path) -> dict[str, Any]:
