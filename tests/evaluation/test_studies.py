@@ -274,3 +274,25 @@ def test_the_realworld_studies_follow_the_papers_real_platform() -> None:
     long = [cfg for _, cfg in study_runs("realworld_long_horizon")]
     assert [c.tasks for c in long] == [["toasting_completion"], ["toaster_activation"], ["serve_toast"]]
     assert long[2].demos == 5 and long[1].continue_from.startswith(long[0].runs)
+
+
+def test_a_retabulation_keeps_the_command_that_recorded_the_episodes(tmp_path: Path,
+                                                                     monkeypatch: pytest.MonkeyPatch) -> None:
+    import json
+    import sys
+
+    from bimanualshift.data.seeds import split_seeds
+    from bimanualshift.evaluation.studies import TABLE1_TASKS, run_study
+
+    monkeypatch.chdir(tmp_path)
+    _record_table1(tmp_path, {"bimanualshift": TABLE1_TASKS}, split_seeds("test", 2))
+    recorded = "bimanualshift study table1 --workers 2"
+    for half in ("complex_tasks", "simpler_tasks"):
+        (tmp_path / "results" / "table1" / half / "summary.json").write_text(json.dumps({"command": recorded}))
+    (tmp_path / "results" / "table1" / "summary.json").write_text(json.dumps({"command": recorded}))
+    monkeypatch.setattr(sys, "argv", ["bimanualshift", "study", "table1", "--recorded-only"])
+    summary = json.loads(run_study("table1", {"episodes": 2, "videos": 0}, "results", recorded_only=True).read_text())
+    assert summary["command"] == recorded
+    assert summary["tabulated_by"] == "bimanualshift study table1 --recorded-only"
+    for half in ("complex_tasks", "simpler_tasks"):
+        assert json.loads((tmp_path / "results" / "table1" / half / "summary.json").read_text())["command"] == recorded

@@ -242,6 +242,16 @@ def study_status(name: str, overrides: dict[str, Any] | None = None, root: str =
             for (task, method), (done, planned) in recorded_counts(cfg).items()]
 
 
+def recorded_command(summary: Path, fallback: str) -> str:
+    """The command that recorded a result folder's episodes, from its earlier summary (a re-tabulation keeps it,
+    so the file still names what produced its numbers), else ``fallback``."""
+    if summary.is_file():
+        earlier = json.loads(summary.read_text()).get("command", "")
+        if earlier and "--recorded-only" not in earlier:
+            return earlier
+    return fallback
+
+
 def run_study(name: str, overrides: dict[str, Any] | None = None, root: str = "results",
               recorded_only: bool = False) -> Path:
     """Run (or resume) every run of the study, then its combined table, plots and targets. ``recorded_only``
@@ -274,8 +284,10 @@ def run_study(name: str, overrides: dict[str, Any] | None = None, root: str = "r
     runs, seeds, configs, episodes = [], {}, [], []
     run_episodes: dict[str, list[dict[str, Any]]] = {}
     for label, cfg in tabulated:
-        summary = ran.get(cfg.out) or run_bench(cfg, command=f"{command}  # run: {label}",
-                                                started=begun.get(cfg.out))
+        run_command = f"{command}  # run: {label}"
+        if recorded_only:  # nothing is rolled out: the run's summary keeps the command that recorded it
+            run_command = recorded_command(Path(cfg.out) / "summary.json", run_command)
+        summary = ran.get(cfg.out) or run_bench(cfg, command=run_command, started=begun.get(cfg.out))
         result = json.loads(summary.read_text())
         seeds = {**seeds, **{f"{label} {k}": v for k, v in result["seeds"].items()}}
         runs.append((label, result["rows"]))
@@ -295,7 +307,11 @@ def run_study(name: str, overrides: dict[str, Any] | None = None, root: str = "r
     atomic_write_text(out / "table.md", "\n".join([study_table(name, rows), stage_table(rows),
                                                    targets_table(targets)]))
     draw_plots(out, rows, f"study {name}")
+    retabulated = {"tabulated_by": command} if recorded_only else {}
+    if recorded_only:
+        command = recorded_command(out / "summary.json", command)
     return write_result(out / "summary.json", command, seeds, started, rows, bench=True, study=name, runs=configs,
+                        **retabulated,
                         targets=targets, paired=paired,
                         notes="rows carry the run they come from; each run's own folder has its episodes and "
                               "videos; wall time covers this invocation only")
