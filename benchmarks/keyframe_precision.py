@@ -12,10 +12,10 @@ same seed), the distance to the expert's pose is split into the chain that produ
 - ``reached``: where the arm ended against the expert's pose: what the task sees.
 
 Rotations are measured to the expert's grasp or its half-turn twin about the gripper's axis, whichever is nearer
-(the same parallel grasp). Each is given as median and quartiles in cm and degrees, per task and over all of them, with the share of grasps
-within 1 cm and 5 degrees (the precision target). The prior alone in its own arm frame, on its pretraining suite,
-is ``prior-report``'s keyframe error (results/priors*.json). Nothing is rolled out; the folder's
-``keyframes.jsonl`` must log ``reached`` (recorded since the executor started logging it).
+(the same parallel grasp). Each is given as median and quartiles in cm and degrees, per task and over all of them,
+with the share of grasps within 1 cm and 5 degrees (the precision target). The prior alone in its own arm frame,
+on its pretraining suite, is ``prior-report``'s keyframe error (results/priors*.json). Nothing is rolled out; the
+folder's ``keyframes.jsonl`` must log ``reached`` (recorded since the executor started logging it).
 """
 
 from __future__ import annotations

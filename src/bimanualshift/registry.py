@@ -185,8 +185,8 @@ register_method(_residual_method(
 register_method(_residual_method(
     "closed_loop_choice", "variant: the full method before refinement whose checkpoint is chosen by rollouts: the "
     "lowest validation error of each quarter of the run rolls out 30 validation scenes of its own and the most "
-    "successful one is kept (compare with no_refinement on validation seeds)", refine=False, retrieval=True, select_rollouts=30,
-    select_candidates=4))
+    "successful one is kept (compare with no_refinement on validation seeds)", refine=False, retrieval=True,
+    select_rollouts=30, select_candidates=4))
 register_method(_residual_method(
     "paper_literal", "ablation: the residual moves translation and rotation only (Eq. 4 as written: no gripper "
     "residual, no hold)", retrieval=True, paper_literal=True, role="ablation"))
