@@ -3,6 +3,9 @@
     .venv/bin/python benchmarks/keyframe_precision.py results/issue54/closed_loop_choice \
         --methods no_refinement --out results/keyframe_precision.json
 
+A prior report's keyframe log (``prior-report --out X.json`` writes ``X.keyframes.jsonl``) reads the same way, the
+prior's name standing for the method: there the one arm drives alone and ``prior`` and ``policy`` coincide.
+
 At each arm's first grasp keyframe (the first keyframe at which the scripted expert closes that arm's gripper on the
 same seed), the distance to the expert's pose is split into the chain that produced it:
 
@@ -99,11 +102,16 @@ def summarise(grasps: list[dict[str, Any]]) -> dict[str, Any]:
 def precision_rows(folder: Path, methods: list[str], success: bool | None = None,
                    seeds: dict[str, list[int]] | None = None) -> list[dict[str, Any]]:
     """Rows per (task, method) and pooled per method; ``seeds``, if given, collects each task's seeds read."""
-    log = folder / "keyframes.jsonl"
+    if folder.is_file():  # a prior report's X.keyframes.jsonl, its episodes in X.episodes.jsonl
+        log = folder
+        episodes = folder.with_name(folder.name.replace(".keyframes.jsonl", ".episodes.jsonl"))
+    else:
+        log, episodes = folder / "keyframes.jsonl", folder / "episodes.jsonl"
     if not log.is_file():
-        raise FileNotFoundError(f"{folder} holds no keyframes.jsonl: give a bench result folder")
-    outcomes = {(e["task"], e["method"], e.get("perturbation", "none"), e["seed"]): bool(e["success"])
-                for e in read_records(folder / "episodes.jsonl")} if (folder / "episodes.jsonl").is_file() else {}
+        raise FileNotFoundError(f"{folder} holds no keyframes.jsonl: give a bench result folder or a prior "
+                                "report's .keyframes.jsonl")
+    outcomes = {(e["task"], e.get("method", e.get("prior")), e.get("perturbation", "none"), e["seed"]):
+                bool(e["success"]) for e in read_records(episodes)} if episodes.is_file() else {}
     by_cell: dict[tuple[str, str], list[dict[str, Any]]] = {}
     for record in read_records(log):
         if record["method"] not in methods or record.get("perturbation", "none") != "none":
@@ -136,7 +144,8 @@ def markdown(rows: list[dict[str, Any]]) -> str:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("folder", help="a bench result folder holding keyframes.jsonl")
+    parser.add_argument("folder", help="a bench result folder holding keyframes.jsonl, or a prior report's "
+                                           ".keyframes.jsonl (its priors are the methods)")
     parser.add_argument("--methods", nargs="+", required=True)
     parser.add_argument("--episodes", choices=("all", "successes", "failures"), default="all")
     parser.add_argument("--out", default="", help="result file (JSON) to write")

@@ -70,3 +70,14 @@ def test_the_script_writes_medians_and_the_share_within_the_target(tmp_path: Pat
                                      "--episodes", "successes"], capture_output=True, text=True, cwd=ROOT)
     assert only_successes.returncode != 0 and "no unperturbed episode" in only_successes.stderr
     assert "Traceback" not in only_successes.stderr
+
+
+def test_a_prior_reports_keyframe_log_reads_with_the_prior_as_the_method(tmp_path: Path) -> None:
+    _write(tmp_path / "f")
+    (tmp_path / "r.keyframes.jsonl").write_text((tmp_path / "f" / "keyframes.jsonl").read_text())
+    (tmp_path / "r.episodes.jsonl").write_text(json.dumps({"prior": "m", "task": "t", "seed": 7, "success": True,
+                                                           "keyframes": 2}) + "\n")
+    rows = precision.precision_rows(tmp_path / "r.keyframes.jsonl", ["m"], success=True)
+    assert next(r for r in rows if r["task"] == "all")["grasps"] == 2
+    with pytest.raises(ValueError, match="no unperturbed episode"):
+        precision.precision_rows(tmp_path / "r.keyframes.jsonl", ["m"], success=False)

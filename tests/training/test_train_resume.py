@@ -231,7 +231,12 @@ def test_prior_report_resumes_from_its_episode_log(tiny_prior: Path, tmp_path: P
     seeds = [200_000, 200_001]
     first = evaluate_priors([str(tiny_prior)], ["push_button"], seeds, log=log)
     lines = log.read_text().splitlines()
-    assert len(lines) == 2
+    assert len(lines) == 2 and "steps" not in json.loads(lines[0])
+    # every episode's keyframes, in bench's layout, beside the episodes (what `keyframe_precision.py` reads)
+    keyframes = [json.loads(line) for line in (tmp_path / "episodes.keyframes.jsonl").read_text().splitlines()]
+    assert [(k["method"], k["seed"]) for k in keyframes] == [(str(tiny_prior), s) for s in seeds]
+    assert [len(k["steps"]) for k in keyframes] == [e.keyframes for e in first]
+    assert "expert" in keyframes[0]["steps"][0] and "reached" in keyframes[0]["steps"][0]
     log.write_text(lines[0] + "\n" + lines[1][:10])  # killed while writing the second record
     again = evaluate_priors([str(tiny_prior)], ["push_button"], seeds, log=log)
     assert again == first and len(log.read_text().splitlines()) == 3  # the cut line stays, ignored

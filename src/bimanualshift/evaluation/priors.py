@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import json
 import time
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -25,6 +25,16 @@ class PriorEpisode:
     seed: int
     success: bool
     keyframes: int
+    # every keyframe's log (``rollout.loop.keyframe_row``); kept in a log of its own beside the episodes
+    steps: list[dict[str, Any]] | None = field(default=None, compare=False, repr=False)
+
+
+def keyframe_log_path(log: str | Path) -> Path:
+    """Where a report's per-keyframe log goes, beside its episode log (``X.episodes.jsonl`` -> ``X.keyframes.jsonl``;
+    bench's layout: one line per episode with the task, the prior as ``method`` and the keyframes)."""
+    log = Path(log)
+    stem = log.name[: -len(".episodes.jsonl")] if log.name.endswith(".episodes.jsonl") else log.stem
+    return log.with_name(f"{stem}.keyframes.jsonl")
 
 
 def _policy(prior: str) -> Any:
@@ -43,7 +53,7 @@ def run_prior_episode(job: tuple[str, str, int]) -> PriorEpisode:
     prior, task, seed = job
     env = cached_env(task)
     record = rollout(env, _policy(prior), seed, episode_budget(env, seed))
-    return PriorEpisode(prior, task, seed, record.success, record.keyframes)
+    return PriorEpisode(prior, task, seed, record.success, record.keyframes, record.steps)
 
 
 def evaluate_priors(priors: list[str], tasks: list[str], seeds: list[int], workers: int = 1,
@@ -61,7 +71,11 @@ def evaluate_priors(priors: list[str], tasks: list[str], seeds: list[int], worke
 
     def record(episode: PriorEpisode) -> None:
         if log is not None:
-            append_record(log, asdict(episode))
+            if episode.steps is not None:  # first, so that an episode logged as done always has its keyframes
+                append_record(keyframe_log_path(log), {"task": episode.task, "method": episode.prior,
+                                                       "perturbation": "none", "seed": episode.seed,
+                                                       "steps": episode.steps})
+            append_record(log, {k: v for k, v in asdict(episode).items() if k != "steps"})
 
     results = run_jobs(run_prior_episode, jobs, workers, desc="prior episodes", chunksize=2, on_result=record,
                        executor=executor,
