@@ -65,13 +65,13 @@ def test_a_run_rolls_its_candidates_out_and_hands_on_the_most_successful(
     best = train_residual(config_from_flat(
         TrainConfig, prior=str(prior), data=str(demo_root / "bimanual"), validation_data=str(demo_root / "bimanual"),
         out=str(run), steps=4, checkpoint_every=2, demos=2, retrieval=True, retrieval_threshold=-1.0,
-        select_rollouts=2, select_candidates=2))
+        select_rollouts=1, select_candidates=2, select_max_keyframes=2))
     summary = json.loads((run / "summary.json").read_text())
     record = summary["closed_loop_choice"]
     folders = candidate_folders(run)
     # 3 validated checkpoints (steps 0, 2, 4) in 2 stretches: step 0 alone in the first, the lower of 2 and 4
     assert len(folders) == len(record["candidates"]) == 2
-    assert [r["episodes"] for r in record["candidates"]] == [2, 2]
+    assert [r["episodes"] for r in record["candidates"]] == [1, 1]
     values = [r["validation_loss"] for r in record["candidates"]]
     assert values == sorted(values)
     history = {h["step"]: h["validation"] for h in summary["history"]}
@@ -81,11 +81,11 @@ def test_a_run_rolls_its_candidates_out_and_hands_on_the_most_successful(
     assert chosen["trained_steps"] == record["chosen_step"]
     for folder in folders:  # each candidate was rolled out on the selection scenes, and gated like best/
         episodes = json.loads((folder / ROLLOUTS_FILE).read_text())
-        assert episodes["seeds"] == selection_seeds(2) and all(e["keyframes"] >= 1 for e in episodes["episodes"])
+        assert episodes["seeds"] == selection_seeds(1) and all(1 <= e["keyframes"] <= 2 for e in episodes["episodes"])
         assert "output_scale" in json.loads((folder / "config.json").read_text())
 
-    # The choice follows the rollouts: in the saved outcomes, let the chosen candidate fail both scenes and the
-    # other solve both; the choice is made again from them (nothing is rolled out again) and hands the other on.
+    # The choice follows the rollouts: in the saved outcomes, let the chosen candidate fail its scene and the
+    # other solve it; the choice is made again from them (nothing is rolled out again) and hands the other on.
     for folder in folders:
         won = json.loads((folder / "config.json").read_text())["trained_steps"] != record["chosen_step"]
         saved = json.loads((folder / ROLLOUTS_FILE).read_text())
@@ -98,10 +98,10 @@ def test_a_run_rolls_its_candidates_out_and_hands_on_the_most_successful(
         raise AssertionError("rolled out again")
 
     monkeypatch.setattr("bimanualshift.utils.workers.run_jobs", no_rollouts)
-    again = choose_by_rollouts(run, TASK, episodes=2)
+    again = choose_by_rollouts(run, TASK, episodes=1, max_keyframes=2)
     assert again["chosen_step"] == json.loads((other / "config.json").read_text())["trained_steps"]
-    assert json.loads((run / "best" / "config.json").read_text())["closed_loop_choice"] == {"successes": 2,
-                                                                                         "episodes": 2}
+    assert json.loads((run / "best" / "config.json").read_text())["closed_loop_choice"] == {"successes": 1,
+                                                                                         "episodes": 1}
     assert not (run / "best.choosing").exists() and not (run / "best.previous").exists()
 
 

@@ -94,7 +94,8 @@ def roll_out_candidates(folders: list[Path], task: str, episodes: int, workers: 
     done: dict[str, list[dict[str, Any]]] = {}
     for folder in folders:
         saved = folder / ROLLOUTS_FILE
-        if saved.is_file() and read_json_file(saved).get("seeds") == seeds:
+        if saved.is_file() and read_json_file(saved).get("seeds") == seeds and read_json_file(saved).get(
+                "max_keyframes", 0) == max_keyframes:  # outcomes of other scenes or another limit are run again
             done[str(folder)] = read_json_file(saved)["episodes"]
     jobs = [(str(f), task, seed, max_keyframes) for f in folders if str(f) not in done for seed in seeds]
     if jobs:
@@ -104,7 +105,8 @@ def roll_out_candidates(folders: list[Path], task: str, episodes: int, workers: 
             mine = sorted((r for r in results if r["candidate"] == str(folder)), key=lambda r: r["seed"])
             if mine:
                 episodes_of = [{k: v for k, v in r.items() if k != "candidate"} for r in mine]
-                atomic_write_json(folder / ROLLOUTS_FILE, {"task": task, "seeds": seeds, "episodes": episodes_of})
+                atomic_write_json(folder / ROLLOUTS_FILE, {"task": task, "seeds": seeds, "max_keyframes": max_keyframes,
+                                                           "episodes": episodes_of})
                 done[str(folder)] = episodes_of
     rows = []
     for folder in folders:

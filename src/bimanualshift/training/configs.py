@@ -213,6 +213,7 @@ class TrainConfig:
     select_rollouts: int = 0
     select_candidates: int = 4
     select_workers: int = 1  # processes rolling the candidates out (the same outcomes whatever the number)
+    select_max_keyframes: int = 0  # the selection rollouts' episode length limit (0: the task's)
     gripper_weight: float = 0.01  # weight of the gripper logit's cross-entropy in L_BC (not paper-literal)
     hold_weight: float = 0.01  # weight of the hold logit's cross-entropy in L_BC (not paper-literal)
     dataset: ResidualDataConfig = field(default_factory=ResidualDataConfig)

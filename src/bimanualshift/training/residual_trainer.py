@@ -276,7 +276,7 @@ def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Pat
                 if "output_scale" not in json.loads((folder / "config.json").read_text()):
                     gate(folder)
             choice = {"closed_loop_choice": choose_by_rollouts(out, data.task, cfg.select_rollouts,
-                                                               cfg.select_workers)}
+                                                               cfg.select_workers, cfg.select_max_keyframes)}
             residual.load_state_dict(load_safetensors(out / "best" / "model.safetensors"))
             saved_gate = json.loads((out / "best" / "config.json").read_text()).get("output_scale")
             gated = {"output_gate": saved_gate} if saved_gate else {}
