@@ -13,3 +13,7 @@ UNIMANUAL_ARM_Y = {"right": 0.0}
 WORKSPACE_LOW = np.array([-0.55, -0.75, TABLE_TOP_Z - 0.02])
 WORKSPACE_HIGH = np.array([0.45, 0.75, TABLE_TOP_Z + 0.65])
 
+
+def skill_side(rng: np.random.Generator) -> float:
+    """Which side of its arm a single-arm skill's object stands, drawn from the seed's generator: +1 left, -1 right."""
+    return 1.0 if rng.random() < 0.5 else -1.0

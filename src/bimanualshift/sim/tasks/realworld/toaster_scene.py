@@ -104,11 +104,6 @@ WORKER_RACK_Y = (0.04, 0.10)
 WORKER_PLATE_Y = (0.0, 0.05)
 
 
-def skill_side(rng: np.random.Generator) -> float:
-    """Which side of the arm a single-arm skill's toaster stands: +1 left, -1 right."""
-    return 1.0 if rng.random() < 0.5 else -1.0
-
-
 def facing_yaw(rng: np.random.Generator, towards_minus_y: bool) -> float:
     """A toaster's yaw: its -y end (the lever) towards -y if ``towards_minus_y``, else turned half round."""
     return rng.uniform(-YAW, YAW) + (0.0 if towards_minus_y else np.pi)

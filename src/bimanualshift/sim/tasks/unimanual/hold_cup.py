@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from bimanualshift.sim.layout import TABLE_TOP_Z
+from bimanualshift.sim.layout import TABLE_TOP_Z, skill_side
 from bimanualshift.sim.props.cups import cup_xml
 from bimanualshift.sim.task import Keyframe, SimHandle, register_task
 from bimanualshift.sim.tasks.realworld.pouring_water import TARGET_REGION, YAW, PouringTask, handle_keyframes
@@ -24,7 +24,7 @@ class HoldCup(PouringTask):
         return cup_xml("cup_held")
 
     def initialize_episode(self, sim: SimHandle, rng: np.random.Generator) -> None:
-        side = 1.0 if rng.random() < 0.5 else -1.0
+        side = skill_side(rng)
         xy = np.array([rng.uniform(*TARGET_REGION[0]), side * rng.uniform(*CUP_Y)])
         yaw = rng.uniform(-YAW, YAW) + (0.0 if side > 0 else np.pi)  # the handle (its -y side) towards the arm
         sim.set_free_pose("cup_held_joint", np.r_[xy, TABLE_TOP_Z + 0.001], Rotation.from_euler("z", yaw).as_quat())

@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from bimanualshift.sim.layout import TABLE_TOP_Z
+from bimanualshift.sim.layout import TABLE_TOP_Z, skill_side
 from bimanualshift.sim.props.threading import ROD_HALF_WIDTH, rod_xml
 from bimanualshift.sim.task import ArmAction, Keyframe, SimHandle, Task, register_task
 from bimanualshift.sim.tasks.realworld.block_threading import YAW, rod_grip
@@ -26,7 +26,7 @@ class HoldRod(Task):
         return rod_xml("rod", flat=self.perturbations.unseen_shapes)
 
     def initialize_episode(self, sim: SimHandle, rng: np.random.Generator) -> None:
-        side = 1.0 if rng.random() < 0.5 else -1.0
+        side = skill_side(rng)
         xy = np.array([rng.uniform(*ROD_X), side * rng.uniform(*ROD_Y)])
         yaw = rng.uniform(-YAW, YAW) + (0.0 if side < 0 else np.pi)  # its far end towards the arm's outside
         sim.set_free_pose("rod_joint", np.r_[xy, TABLE_TOP_Z + ROD_HALF_WIDTH + 0.001],

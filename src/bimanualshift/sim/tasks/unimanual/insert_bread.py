@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from bimanualshift.sim.layout import skill_side
 from bimanualshift.sim.props.toaster import (
     bread_in_slot,
     bread_xml,
@@ -26,7 +27,6 @@ from bimanualshift.sim.tasks.realworld.toaster_scene import (
     facing_yaw,
     insert_keyframes,
     sample_xy,
-    skill_side,
 )
 
 

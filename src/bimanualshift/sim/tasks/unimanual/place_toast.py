@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from bimanualshift.sim.layout import TABLE_TOP_Z
+from bimanualshift.sim.layout import TABLE_TOP_Z, skill_side
 from bimanualshift.sim.props.plate import plate_xml
 from bimanualshift.sim.props.toaster import (
     TOAST_COLOUR,
@@ -28,7 +28,6 @@ from bimanualshift.sim.tasks.realworld.toaster_scene import (
     facing_yaw,
     place_keyframes,
     sample_xy,
-    skill_side,
     toast_on_plate,
 )
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from bimanualshift.sim.layout import TABLE_TOP_Z
+from bimanualshift.sim.layout import TABLE_TOP_Z, skill_side
 from bimanualshift.sim.props.placement import sample_separated
 from bimanualshift.sim.props.vegetables import VEGETABLES, bin_xml, vegetable_xml
 from bimanualshift.sim.task import Keyframe, SimHandle, Task, register_task
@@ -29,7 +29,7 @@ class PlaceVegetable(Task):
         return "".join(vegetable_xml(c) for c in CATEGORIES) + bin_xml("bin_0")
 
     def initialize_episode(self, sim: SimHandle, rng: np.random.Generator) -> None:
-        side = 1.0 if rng.random() < 0.5 else -1.0  # the bin's side of the arm; the vegetables on the other
+        side = skill_side(rng)  # the bin's side of the arm; the vegetables on the other
         chosen = [str(c) for c in rng.permutation(CATEGORIES)[:2]]  # the named one and a distractor
         colours = self.pick_colours(rng, 2)
         sim.model.body_pos[sim.body_id("bin_0")] = [rng.uniform(*BIN_X), side * rng.uniform(*BIN_Y), TABLE_TOP_Z]

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from bimanualshift.sim.layout import skill_side
 from bimanualshift.sim.props.toaster import place_toaster, toaster_xml
 from bimanualshift.sim.task import Keyframe, SimHandle, register_task
 from bimanualshift.sim.tasks.realworld.toaster_scene import (
@@ -15,7 +16,6 @@ from bimanualshift.sim.tasks.realworld.toaster_scene import (
     facing_yaw,
     lever_keyframes,
     sample_xy,
-    skill_side,
 )
 
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from bimanualshift.sim.layout import TABLE_TOP_Z
+from bimanualshift.sim.layout import TABLE_TOP_Z, skill_side
 from bimanualshift.sim.props.ball import BALL_RADIUS, ball_xml
 from bimanualshift.sim.task import ArmAction, Keyframe, SimHandle, Task, down_quat, register_task
 
@@ -31,7 +31,7 @@ class PushBallAside(Task):
         return ball_xml("ball", cube=self.perturbations.unseen_shapes)
 
     def initialize_episode(self, sim: SimHandle, rng: np.random.Generator) -> None:
-        side = 1.0 if rng.random() < 0.5 else -1.0
+        side = skill_side(rng)
         xy = np.array([rng.uniform(*REGION_X), side * rng.uniform(*SIDE_Y)])
         yaw = rng.uniform(-np.pi / 8, np.pi / 8)
         sim.set_free_pose("ball_joint", np.r_[xy, TABLE_TOP_Z + BALL_RADIUS], Rotation.from_euler("z", yaw).as_quat())

@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from bimanualshift.sim.layout import TABLE_TOP_Z
+from bimanualshift.sim.layout import TABLE_TOP_Z, skill_side
 from bimanualshift.sim.props.threading import BLOCK_HALF, ROD_HALF_LENGTH, block_xml, rod_xml
 from bimanualshift.sim.task import ArmAction, Keyframe, SimHandle, register_task
 from bimanualshift.sim.tasks.realworld.block_threading import (
@@ -36,7 +36,7 @@ class ThreadBlock(ThreadingTask):
         return rod_xml("rod", mounted=True) + block_xml("block", wide=self.perturbations.unseen_shapes)
 
     def initialize_episode(self, sim: SimHandle, rng: np.random.Generator) -> None:
-        side = 1.0 if rng.random() < 0.5 else -1.0
+        side = skill_side(rng)
         block = np.array([rng.uniform(*BLOCK_X), side * rng.uniform(*BLOCK_Y)])
         yaws = rng.uniform(-YAW, YAW, size=2)
         sim.set_free_pose("block_joint", np.r_[block, TABLE_TOP_Z + BLOCK_HALF + 0.001],
