@@ -31,12 +31,16 @@ def selection_seeds(episodes: int) -> list[int]:
     return split_seeds("validation", episodes, SELECTION_ROLLOUT_START)
 
 
+def _value_and_step(folder: Path) -> tuple[float, int]:
+    config = read_json_file(folder / "config.json")
+    return float(config["validation_loss"]), int(config["trained_steps"])
+
+
 def candidate_folders(run: Path) -> list[Path]:
     """The kept candidates, best teacher-forced value first (then the earlier step)."""
     root = run / CANDIDATES_FOLDER
     folders = [f for f in sorted(root.glob("step_*")) if (f / "config.json").is_file()] if root.is_dir() else []
-    return sorted(folders, key=lambda f: (float(read_json_file(f / "config.json")["validation_loss"]),
-                                          int(read_json_file(f / "config.json")["trained_steps"])))
+    return sorted(folders, key=_value_and_step)
 
 
 def segment(step: int, total_steps: int, parts: int) -> int:
@@ -51,9 +55,9 @@ def keep_candidate(run: Path, step: int, value: float, parts: int, total_steps: 
     kept. One candidate per stretch, not the ``parts`` lowest values: on a decaying learning rate those are the last
     few checkpoints, nearly one set of weights, and rolling them all out would buy no choice."""
     mine = segment(step, total_steps, parts)
-    rivals = [f for f in candidate_folders(run)
-              if segment(int(read_json_file(f / "config.json")["trained_steps"]), total_steps, parts) == mine]
-    if any(float(read_json_file(f / "config.json")["validation_loss"]) <= value for f in rivals):
+    rivals = {f: _value_and_step(f) for f in candidate_folders(run)}
+    rivals = {f: v for f, (v, s) in rivals.items() if segment(s, total_steps, parts) == mine}
+    if any(v <= value for v in rivals.values()):
         return False
     save(run / CANDIDATES_FOLDER / f"step_{step:06d}")
     for dropped in rivals:
@@ -93,10 +97,9 @@ def roll_out_candidates(folders: list[Path], task: str, episodes: int, workers: 
     seeds = selection_seeds(episodes)
     done: dict[str, list[dict[str, Any]]] = {}
     for folder in folders:
-        saved = folder / ROLLOUTS_FILE
-        if saved.is_file() and read_json_file(saved).get("seeds") == seeds and read_json_file(saved).get(
-                "max_keyframes", 0) == max_keyframes:  # outcomes of other scenes or another limit are run again
-            done[str(folder)] = read_json_file(saved)["episodes"]
+        saved = read_json_file(folder / ROLLOUTS_FILE) if (folder / ROLLOUTS_FILE).is_file() else {}
+        if saved.get("seeds") == seeds and saved.get("max_keyframes", 0) == max_keyframes:
+            done[str(folder)] = saved["episodes"]  # outcomes of other scenes or another limit are run again
     jobs = [(str(f), task, seed, max_keyframes) for f in folders if str(f) not in done for seed in seeds]
     if jobs:
         results = run_jobs(selection_episode, jobs, workers=min(workers, len(jobs)), desc="closed-loop choice",
@@ -110,9 +113,9 @@ def roll_out_candidates(folders: list[Path], task: str, episodes: int, workers: 
                 done[str(folder)] = episodes_of
     rows = []
     for folder in folders:
-        config = read_json_file(folder / "config.json")
+        value, step = _value_and_step(folder)
         outcomes = done[str(folder)]
-        rows.append({"step": int(config["trained_steps"]), "validation_loss": float(config["validation_loss"]),
+        rows.append({"step": step, "validation_loss": value,
                      "successes": sum(e["success"] for e in outcomes), "episodes": len(outcomes),
                      "stages_done": sum(e["stages_done"] for e in outcomes)})
     return rows
