@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bimanualshift.evaluation.bench import BenchConfig, bench_rows, read_episodes, run_bench
+from bimanualshift.evaluation.bench import BenchConfig, bench_rows, read_episodes, recorded_counts, run_bench
 from bimanualshift.evaluation.explain import explain_rows
 from bimanualshift.evaluation.stats import wilson_interval
 from bimanualshift.evaluation.tables import bench_table, stage_table
@@ -136,6 +136,24 @@ def test_bench_runs_resumes_and_reports(demo_root: Path, tmp_path: Path) -> None
     run_bench(cfg, command="test")
     assert not (tmp_path / "runs").exists() and not (tmp_path / "data").exists()
     assert sorted(map(json.dumps, read_episodes(log))) == sorted(map(json.dumps, first))
+    # Another study planning the same cells from the same runs shares them: copied with their keyframe lines, videos
+    # and training records, nothing trained or rolled out (the runs are gone), and the summary says how many.
+    shared = replace(cfg, methods=["bimanualshift"], out=str(tmp_path / "shared"), share_from=str(tmp_path / "out"))
+    assert recorded_counts(shared) == {("push_two_buttons", "bimanualshift"): (2, 2)}
+    result = json.loads(run_bench(shared, command="test").read_text())
+    mine = [e for e in first if e["method"] == "bimanualshift"]
+    assert read_episodes(tmp_path / "shared" / "episodes.jsonl") == mine and not (tmp_path / "runs").exists()
+    assert len(read_episodes(tmp_path / "shared" / "keyframes.jsonl")) == 2
+    assert result["shared_from"] == {"folder": str(tmp_path / "out"), "episodes": 2}
+    assert set(result["training"]) == {"push_two_buttons/bimanualshift"}
+    assert [p.name for p in (tmp_path / "shared" / "videos").iterdir()] == ["push_two_buttons_bimanualshift_200000.mp4"]
+    run_bench(shared, command="test")  # sharing again copies nothing twice
+    assert read_episodes(tmp_path / "shared" / "episodes.jsonl") == mine
+    # cells made from other demos or other runs are not this run's: refused, naming the difference
+    with pytest.raises(ValueError, match=r"share_from=.*demos=2 there, 3 here"):
+        run_bench(replace(shared, demos=3, out=str(tmp_path / "shared3")), command="test")
+    with pytest.raises(ValueError, match=r"share_from=.*runs=.* there, 'elsewhere' here"):
+        run_bench(replace(shared, runs="elsewhere", out=str(tmp_path / "shared4")), command="test")
     # The folder's episodes came from 2 demos: a 3-demo run is refused before any work, not silently mixed in.
     with pytest.raises(ValueError, match=r"demos=2 there, 3 now.*own --out"):
         run_bench(replace(cfg, demos=3), command="test")

@@ -271,6 +271,13 @@ def test_the_realworld_studies_follow_the_papers_real_platform() -> None:
     # trained once: Table III and the 15-demo few-shot cell reuse Table II's BS-PerAct models
     assert generalisation.runs == table2[0][1].runs == study_runs("realworld_few_shot")[0][1].runs
     assert [cfg.demos for _, cfg in study_runs("realworld_few_shot")] == [15, 5]
+    # its 15-demo cells are Table II's, shared from Table II's folder under the same results root; a study run
+    # under other settings (--demos) rolls them out itself
+    few = study_plan("realworld_few_shot", {}, "elsewhere")
+    assert [cfg.share_from for _, cfg in few] == ["elsewhere/realworld/peract", ""]
+    assert set(few[0][1].tasks) <= set(table2[0][1].tasks) and set(few[0][1].methods) <= set(table2[0][1].methods)
+    assert [cfg.share_from for _, cfg in study_plan("realworld_few_shot", {"demos": 10})] == ["", ""]
+    assert study_plan("realworld_few_shot", {"episodes": 10})[0][1].share_from == "results/realworld/peract"
     long = [cfg for _, cfg in study_runs("realworld_long_horizon")]
     assert [c.tasks for c in long] == [["toasting_completion"], ["toaster_activation"], ["serve_toast"]]
     assert long[2].demos == 5 and long[1].continue_from.startswith(long[0].runs)

@@ -89,10 +89,11 @@ def bench(cfg: BenchConfig) -> None:
     print(f"wrote {summary} (table.md, success.png, episodes.jsonl, videos/ beside it)")
 
 
-# `study NAME`: every BenchConfig field but the folders, each optional: only the flags given override the study's
-# own settings (a study's runs differ in demos, tasks and folders).
+# `study NAME`: every BenchConfig field but the folders (and the cells a run shares with another study's), each
+# optional: only the flags given override the study's own settings (a study's runs differ in demos, tasks and folders).
 StudyOverrides = make_dataclass("StudyOverrides", [
-    (f.name, f.type + " | None", field(default=None)) for f in fields(BenchConfig) if f.name not in ("out", "runs")])
+    (f.name, f.type + " | None", field(default=None)) for f in fields(BenchConfig)
+    if f.name not in ("out", "runs", "share_from")])
 StudyOverrides.__doc__ = "Flags that override every run of the study."
 StudyOverrides.__module__ = __name__
 

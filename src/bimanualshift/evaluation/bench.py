@@ -24,6 +24,13 @@ import numpy as np
 from bimanualshift.configs import DEFAULT_PRIOR
 from bimanualshift.data.seeds import split_seeds
 from bimanualshift.evaluation.plots import bench_title, draw_plots
+from bimanualshift.evaluation.shared_cells import (
+    SAME_FOLDERS,
+    check_shareable,
+    count_shared,
+    share_recorded,
+    shared_records,
+)
 from bimanualshift.evaluation.stats import SuccessRate, SuccessRow, episode_key
 from bimanualshift.evaluation.tables import bench_table, stage_table
 from bimanualshift.registry import METHODS, REFINE_EPISODES, REFINE_FOLDER, MethodSpec, TrainRequest, get_method
@@ -74,6 +81,10 @@ class BenchConfig:
     # superseded/ folders named by the commit (evaluation/rerun.py); repeating the command resumes the re-run.
     # TASK/METHOD re-runs that one task of the method.
     rerun: list[str] = field(default_factory=list)
+    # a results folder of another benchmark from the same runs, demos and settings (a study whose cells another
+    # study already recorded): its episodes of this run's cells are copied here instead of rolled out again
+    # (evaluation/shared_cells.py); the summary says how many
+    share_from: str = ""
 
 
 @dataclass(frozen=True)
@@ -350,10 +361,13 @@ def _all_recorded(done: set[tuple[str, str, str, int]], method: str, tasks: list
 
 
 def recorded_counts(cfg: BenchConfig) -> dict[tuple[str, str], tuple[int, int]]:
-    """Per (task, method) of the run: its rollouts (perturbation, test seed) in ``episodes.jsonl`` and planned."""
+    """Per (task, method) of the run: its rollouts (perturbation, test seed) in ``episodes.jsonl`` (or in the
+    folder it shares cells from) and planned."""
     from bimanualshift.sim.task_registry import resolve_task_names
 
     done = {episode_key(e) for e in read_episodes(Path(cfg.out) / "episodes.jsonl")}
+    if cfg.share_from:  # the cells run_bench would copy before rolling anything out count as recorded
+        done |= {episode_key(e) for e in read_episodes(Path(cfg.share_from) / "episodes.jsonl")}
     seeds = bench_seeds(cfg)["test"]
     planned = len(seeds) * len(cfg.perturbations)
     return {(t, m): (sum((t, m, p, s) in done for p in cfg.perturbations for s in seeds), planned)
@@ -409,6 +423,14 @@ def run_bench(cfg: BenchConfig, command: str | None = None, started: float | Non
     for name in cfg.perturbations:
         preset(name)  # an unknown preset fails before any work
     log = out / "episodes.jsonl"
+    if cfg.share_from:
+        source = Path(cfg.share_from)
+        check_shareable(source, {k: getattr(cfg, k) for k in EPISODE_SETTINGS}, {k: getattr(cfg, k)
+                        for k in SAME_FOLDERS}, SETTINGS_FILE)
+        copied = share_recorded(source, out, [(t, m, p, s) for t in tasks for m in cfg.methods
+                                              for p in cfg.perturbations for s in seeds["test"]], KEYFRAME_LOG)
+        if copied:
+            print(f"[bench] {copied} episodes shared from {source} (same runs, demos and settings)")
     done = {episode_key(e) for e in read_episodes(log)}
     for task in tasks:
         # A method whose every test episode is already recorded is neither retrained nor re-collected for, so
@@ -458,14 +480,23 @@ def run_bench(cfg: BenchConfig, command: str | None = None, started: float | Non
     recorded_episodes = read_episodes(log)
     recorded = seeds if cfg.evaluate_on == "test" else {
         "train": seeds["train"], "validation": seeds["validation"], "validation_rollouts": seeds["test"]}
-    refinement = carried_records(out / "summary.json", "refinement", refinement_records(cfg, tasks), recorded_episodes)
+    shared: dict[str, Any] = {}
+    if cfg.share_from:
+        pairs = {f"{e['task']}/{e['method']}" for e in episodes}
+        shared = {"shared_from": {"folder": cfg.share_from,
+                                  "episodes": count_shared(Path(cfg.share_from), episodes)}}
+    fresh_refinement, fresh_training = refinement_records(cfg, tasks), training_records(cfg, tasks)
+    if cfg.share_from:  # the shared cells' runs are the source's: its records stand where runs/ holds none
+        fresh_refinement = {**shared_records(Path(cfg.share_from), "refinement", pairs), **fresh_refinement}
+        fresh_training = {**shared_records(Path(cfg.share_from), "training", pairs), **fresh_training}
+    refinement = carried_records(out / "summary.json", "refinement", fresh_refinement, recorded_episodes)
     if missing := refinement_missing(refinement, recorded_episodes):
         print(f"[bench] no refinement record for {', '.join(missing)}: their runs are not under {cfg.runs} and no "
               "earlier summary.json here kept them (listed as refinement_missing)")
     write_result(out / "summary.json", command, recorded, started, rows, bench=True, config=asdict(cfg),
                  refinement=refinement, refinement_missing=missing,
-                 training=carried_records(out / "summary.json", "training", training_records(cfg, tasks),
-                                          recorded_episodes),
+                 training=carried_records(out / "summary.json", "training", fresh_training, recorded_episodes),
+                 **shared,
                  methods={m: METHODS[m].description for m in cfg.methods},
                  notes=f"prior {cfg.prior}; episodes stop at {KEYFRAME_BUDGET}x the expert's keyframes on the "
                        "same seed; wall time covers this invocation only (a resumed run reuses earlier work)")

@@ -16,8 +16,16 @@ from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any
 
-from bimanualshift.evaluation.bench import BenchConfig, average_row, recorded_counts, recorded_methods, run_bench
+from bimanualshift.evaluation.bench import (
+    EPISODE_SETTINGS,
+    BenchConfig,
+    average_row,
+    recorded_counts,
+    recorded_methods,
+    run_bench,
+)
 from bimanualshift.evaluation.plots import draw_plots
+from bimanualshift.evaluation.shared_cells import SAME_FOLDERS
 from bimanualshift.evaluation.tables import stage_table, study_table, targets_table
 from bimanualshift.evaluation.targets import paired_with_full, study_targets
 from bimanualshift.registry import methods_with_role
@@ -103,10 +111,12 @@ _STUDIES += [
               ("perturbations", _twin(tasks=["block_threading"], demos=15, methods=["bimanualshift", "peract_lf"],
                                       perturbations=list(PRESETS), out="realworld_generalisation/perturbations",
                                       runs=f"{REALWORLD_RUNS}/peract")),)),
+    # the 15-demo half is Table II's cells (its models, settings and seeds): shared, not rolled out again
     Study("realworld_few_shot", "Fig. 11a on the twin: 15 and 5 demos", tuple(
         (f"{n} demos", _twin(tasks=["vegetable_sorting", "block_threading"], demos=n,
                              methods=["bimanualshift", "peract_lf"], out=f"realworld_few_shot/demos_{n}",
-                             runs=f"{REALWORLD_RUNS}/{'peract' if n == 15 else f'few_shot_{n}'}"))
+                             runs=f"{REALWORLD_RUNS}/{'peract' if n == 15 else f'few_shot_{n}'}",
+                             share_from="realworld/peract" if n == 15 else ""))
         for n in (15, 5))),
     Study("realworld_long_horizon", "Fig. 11b on the twin: toasting completion, then toaster activation, each from "
           "the last, then the four-stage insert-press-grasp-place task from 5 demos", (
@@ -127,7 +137,8 @@ def study_runs(name: str, root: str = "results") -> list[tuple[str, BenchConfig]
     """(label, config) of every benchmark run of a study, its folders under ``root``."""
     if name not in STUDY_TABLE:
         raise ValueError(f"unknown study {name!r}; choose from {STUDIES}")
-    return [(label, replace(cfg, out=f"{root}/{cfg.out}")) for label, cfg in STUDY_TABLE[name].runs]
+    return [(label, replace(cfg, out=f"{root}/{cfg.out}", share_from=cfg.share_from and f"{root}/{cfg.share_from}"))
+            for label, cfg in STUDY_TABLE[name].runs]
 
 
 def combined_rows(runs: list[tuple[str, list[dict[str, Any]]]], labelled: bool | None = None
@@ -183,6 +194,8 @@ def study_plan(name: str, overrides: dict[str, Any] | None = None, root: str = "
                 continue
             planned = replace(planned, tasks=tasks)
         cfg = replace(planned, **overrides)
+        if cfg.share_from and set(overrides) & {*EPISODE_SETTINGS, *SAME_FOLDERS}:
+            cfg = replace(cfg, share_from="")  # other settings than the cells it would share: roll them out here
         plan.append((label.replace(f"{planned.demos} demos", f"{cfg.demos} demos"), cfg))
     return plan
 
