@@ -34,6 +34,8 @@ SKILL_PAIRS: dict[str, dict[str, str | dict[str, str]]] = {
     "toaster_activation": {"toaster": {"left": "steady_toaster", "right": "press_lever"}},
     "toasting_completion": {"toaster": {"left": "steady_toaster", "right": "insert_bread"}, "bread": "insert_bread"},
     "pouring_water": {"cup": {"left": "hold_cup", "right": "pour_cup"}},
+    # the vase is the pouring task's cup: held as `hold_cup` holds it, filled as `insert_stem` fills it
+    "flower_arrangement": {"cup": {"left": "hold_cup", "right": "insert_stem"}, "flower": "insert_stem"},
     "serve_toast": {"toaster": {"left": "steady_toaster", "right": "insert_bread"}, "bread": "insert_bread",
                     "plate": "place_toast"},
 }
@@ -51,7 +53,8 @@ def single_arm_tasks(task: str) -> set[str]:
 # Kinds whose turn about the vertical the cameras cannot see (round) are compared by position only.
 ROUND_KINDS = frozenset({"button", "plate", "ball", "rope_end"})
 # Goal classes compared as one kind: the vegetables a hand grasps the same way (down, across the long axis)
-KIND_ALIASES = {category: "vegetable" for category in VEGETABLES} | {"cup_held": "cup", "cup_full": "cup"}
+KIND_ALIASES = {category: "vegetable" for category in VEGETABLES} | {"cup_held": "cup", "cup_full": "cup",
+                                                                    "vase": "cup"}
 # A bimanual pose is covered when a single-arm sample lies this close (x, y in metres; yaw in radians).
 NEAR_XY = 0.05
 NEAR_YAW = 0.20

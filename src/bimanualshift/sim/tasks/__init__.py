@@ -11,6 +11,7 @@ from bimanualshift.sim.tasks.bimanual import (  # noqa: F401
 )
 from bimanualshift.sim.tasks.realworld import (  # noqa: F401
     block_threading,
+    flower_arrangement,
     pouring_water,
     serve_toast,
     toaster_activation,
@@ -23,6 +24,7 @@ from bimanualshift.sim.tasks.unimanual import (  # noqa: F401
     hold_dustpan,
     hold_rod,
     insert_bread,
+    insert_stem,
     open_oven_door,
     pick_cube,
     pick_up_small_plate,
