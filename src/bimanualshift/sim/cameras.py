@@ -120,6 +120,11 @@ class CameraRig:
         self._release: weakref.finalize | None = None
         self._closed = False
         self._scene = mujoco.MjvScene(model, maxgeom=10_000)
+        # a flex (a cloth) has no geoms: its pixels are labelled as the invisible geom "<flex>_proxy" where the task
+        # gives one, so the cloth segments as that geom's object
+        flex_names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_FLEX, f) for f in range(model.nflex)]
+        self._flex_proxy = {f: g for f, name in enumerate(flex_names)
+                            if (g := mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, f"{name}_proxy")) >= 0}
         for flag in (mujoco.mjtRndFlag.mjRND_SHADOW, mujoco.mjtRndFlag.mjRND_REFLECTION,
                      mujoco.mjtRndFlag.mjRND_SKYBOX):
             self._scene.flags[flag] = 0
@@ -201,6 +206,8 @@ class CameraRig:
         for g in self._scene.geoms[: self._scene.ngeom]:
             if g.segid >= 0 and g.objtype == mujoco.mjtObj.mjOBJ_GEOM:
                 lookup[g.segid + 1] = g.objid
+            elif g.segid >= 0 and g.objtype == mujoco.mjtObj.mjOBJ_FLEX and g.objid in self._flex_proxy:
+                lookup[g.segid + 1] = self._flex_proxy[g.objid]
         return depth, lookup[np.minimum(segid, self._scene.ngeom)]
 
     def render(self, data: mujoco.MjData, depth_and_segmentation: bool = True,

@@ -93,6 +93,8 @@ class RobosuiteScene(ManipulationEnv):
                 self.model.contact.extend(list(element))
             elif element.tag == "asset":  # materials, textures and meshes the task's bodies use
                 self.model.asset.extend(list(element))
+            elif element.tag == "equality":  # constraints between the task's bodies (a cloth's corner tabs)
+                self.model.equality.extend(list(element))
             else:
                 self.model.worldbody.append(element)
         lighten_visual_meshes(self.model.root)

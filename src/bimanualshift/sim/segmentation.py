@@ -32,8 +32,9 @@ class SceneInstances:
         names, classes = [BACKGROUND], [BACKGROUND]
         instance_class = [0]
         root_instance: dict[int, int] = {}
+        flex_vertices = set(model.flex_vertbodyid.tolist()) if model.nflex else set()
         for body in range(1, model.nbody):
-            if model.body_parentid[body] != 0:
+            if model.body_parentid[body] != 0 or body in flex_vertices:  # a cloth's vertices draw nothing
                 continue
             root = model.body(body).name
             if root in robot_roots:

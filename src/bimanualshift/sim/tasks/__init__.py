@@ -13,6 +13,7 @@ from bimanualshift.sim.tasks.realworld import (  # noqa: F401
     block_threading,
     flower_arrangement,
     pouring_water,
+    quilt_folding,
     serve_toast,
     toaster_activation,
     toasting_completion,
@@ -20,6 +21,7 @@ from bimanualshift.sim.tasks.realworld import (  # noqa: F401
 )
 from bimanualshift.sim.tasks.unimanual import (  # noqa: F401
     drag_dustpan,
+    fold_corner,
     hold_cup,
     hold_dustpan,
     hold_rod,
