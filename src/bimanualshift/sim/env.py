@@ -33,7 +33,7 @@ PROPRIO_DIM = 8
 
 # Model fields a task or perturbation may set per episode; data fields that make up the simulator's state.
 MODEL_EPISODE_FIELDS = ("body_pos", "body_quat", "geom_rgba", "geom_size", "geom_pos", "geom_quat", "geom_matid",
-                        "geom_friction", "body_mass", "jnt_range", "dof_damping")
+                        "geom_friction", "body_mass", "jnt_range", "dof_damping", "flex_rgba")
 DATA_STATE_FIELDS = ("qpos", "qvel", "act", "ctrl", "qacc_warmstart")
 
 
@@ -166,13 +166,16 @@ class ManipulationEnv(gym.Env):
             "body_pos": self.model.body_pos.copy(),
             "body_quat": self.model.body_quat.copy(),
             "geom_rgba": self.model.geom_rgba.copy(),
+            "flex_rgba": self.model.flex_rgba.copy(),  # a cloth's colour
             "episode": copy.deepcopy(self.task.episode),
             "keyframe_index": self.keyframe_index,
             "gripper_open": dict(self.gripper_open),
         }
 
     def set_state(self, state: dict[str, Any]) -> None:
-        for key in (*DATA_STATE_FIELDS, "body_pos", "body_quat", "geom_rgba"):
+        # states saved before cloths existed have no flex_rgba; their scenes have no flex either
+        flex = ("flex_rgba",) if "flex_rgba" in state else ()
+        for key in (*DATA_STATE_FIELDS, "body_pos", "body_quat", "geom_rgba", *flex):
             target = getattr(self.data if key in DATA_STATE_FIELDS else self.model, key)
             if np.shape(state[key]) != target.shape:
                 raise ValueError(f"state[{key!r}] has shape {np.shape(state[key])}, this scene needs {target.shape}")

@@ -90,4 +90,6 @@ def mirror_bodies(model: mujoco.MjModel, data: mujoco.MjData, roots: list[int], 
                     data.qpos[adr + 3 : adr + 7] = _half_turned_wxyz(data.qpos[adr + 3 : adr + 7])
             elif kind == mujoco.mjtJoint.mjJNT_BALL:
                 data.qpos[adr : adr + 4] = _reflect_wxyz(data.qpos[adr : adr + 4])
+            elif kind == mujoco.mjtJoint.mjJNT_SLIDE and abs(model.jnt_axis[j][1]) > 0.5:
+                data.qpos[adr] *= -1  # a slide along y (a cloth's vertex) moves the other way in the mirror
     mujoco.mj_forward(model, data)

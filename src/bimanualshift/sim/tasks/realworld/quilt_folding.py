@@ -87,9 +87,15 @@ class QuiltFolding(QuiltTask):
         return corner_folded(sim, "left") and corner_folded(sim, "right")
 
     def arm_goals(self, sim: SimHandle) -> dict[str, list[str]]:
-        return {"left": ["quilt_tab_left"], "right": ["quilt_tab_right"]}  # each arm folds the corner on its side
+        return {arm: [f"quilt_tab_{side}"] for arm, side in tab_roles(sim).items()}
 
     def expert_keyframes(self, sim: SimHandle) -> list[Keyframe]:
-        left, right = fold_keyframes(sim, "left"), fold_keyframes(sim, "right")
-        return [{"left": a, "right": b} for a, b in zip(left, right, strict=True)]
+        plan = {arm: fold_keyframes(sim, side) for arm, side in tab_roles(sim).items()}
+        return [{"left": a, "right": b} for a, b in zip(plan["left"], plan["right"], strict=True)]
+
+
+def tab_roles(sim: SimHandle) -> dict[str, str]:
+    """Arm -> the tab it takes: each the one on its side (a left-right exchange puts the left tab on the right)."""
+    left_on_left = sim.body_pos("quilt_tab_left")[1] > sim.body_pos("quilt_tab_right")[1]
+    return {"left": "left", "right": "right"} if left_on_left else {"left": "right", "right": "left"}
 
