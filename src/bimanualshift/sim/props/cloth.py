@@ -18,8 +18,8 @@ import numpy as np
 from bimanualshift.sim.layout import TABLE_TOP_Z
 from bimanualshift.sim.task import SimHandle
 
-QUILT_COUNT = (9, 9)  # vertices along x (depth, away from the robots) and y (width)
-QUILT_SPACING = 0.03  # 24 x 24 cm
+QUILT_COUNT = (7, 7)  # vertices along x (depth, away from the robots) and y (width)
+QUILT_SPACING = 0.04  # 24 x 24 cm
 QUILT_RADIUS = 0.003  # half the cloth's thickness (its collision radius)
 TAB_HALF = (0.015, 0.015, 0.02)  # a tab is 3 x 3 cm, 4 cm tall
 TABS = ("left", "right")  # the near corners with a tab (left: +y)
