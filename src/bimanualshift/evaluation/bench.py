@@ -481,14 +481,12 @@ def run_bench(cfg: BenchConfig, command: str | None = None, started: float | Non
     recorded = seeds if cfg.evaluate_on == "test" else {
         "train": seeds["train"], "validation": seeds["validation"], "validation_rollouts": seeds["test"]}
     shared: dict[str, Any] = {}
-    if cfg.share_from:
-        pairs = {f"{e['task']}/{e['method']}" for e in episodes}
-        shared = {"shared_from": {"folder": cfg.share_from,
-                                  "episodes": count_shared(Path(cfg.share_from), episodes)}}
     fresh_refinement, fresh_training = refinement_records(cfg, tasks), training_records(cfg, tasks)
     if cfg.share_from:  # the shared cells' runs are the source's: its records stand where runs/ holds none
-        fresh_refinement = {**shared_records(Path(cfg.share_from), "refinement", pairs), **fresh_refinement}
-        fresh_training = {**shared_records(Path(cfg.share_from), "training", pairs), **fresh_training}
+        source, pairs = Path(cfg.share_from), {f"{e['task']}/{e['method']}" for e in episodes}
+        shared = {"shared_from": {"folder": cfg.share_from, "episodes": count_shared(source, episodes)}}
+        fresh_refinement = {**shared_records(source, "refinement", pairs), **fresh_refinement}
+        fresh_training = {**shared_records(source, "training", pairs), **fresh_training}
     refinement = carried_records(out / "summary.json", "refinement", fresh_refinement, recorded_episodes)
     if missing := refinement_missing(refinement, recorded_episodes):
         print(f"[bench] no refinement record for {', '.join(missing)}: their runs are not under {cfg.runs} and no "

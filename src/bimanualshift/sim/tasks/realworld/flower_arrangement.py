@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from bimanualshift.sim.layout import TABLE_TOP_Z
+from bimanualshift.sim.layout import TABLE_TOP_Z, arms_by_side
 from bimanualshift.sim.props.cups import CUP_FLOOR, CUP_HEIGHT, cup_xml, in_cup
 from bimanualshift.sim.props.flowers import BLOOM_CENTRE, STAND_HEIGHT, flower_xml, stand_xml
 from bimanualshift.sim.props.toaster import yaw_of
@@ -21,15 +21,15 @@ from bimanualshift.sim.tasks.realworld.pouring_water import SOURCE_REGION, TARGE
 LIFT_ABOVE_STAND = 0.04  # the stem's foot lifted this far above the stand's walls
 OVER_RIM = 0.03  # carried over the vase with its foot this far above the rim
 INTO_VASE = 0.025  # lowered until its foot is this far above the vase's floor
-GRIP_BELOW_BLOOM_CENTRE = 0.0  # the hand's site at the bloom's centre: the pads cover its sides
 STILL_WITHIN = 0.03  # the vase moved by at most this (metres) and tipped by at most UPRIGHT
 UPRIGHT = np.deg2rad(15.0)
 
 
 def flower_grip(sim: SimHandle, flower: str = "flower") -> tuple[np.ndarray, np.ndarray]:
-    """Where a hand takes the flower (the bloom's centre) and how it is turned (pointing down, fingers closing
-    across two of the bloom's faces, whichever way round is nearer the hand's own)."""
-    grip = sim.body_pos(flower) + [0.0, 0.0, BLOOM_CENTRE - GRIP_BELOW_BLOOM_CENTRE]
+    """Where a hand takes the flower (the bloom's centre: the pads cover its sides) and how it is turned
+    (pointing down, fingers closing across two of the bloom's faces, whichever way round is nearer the hand's
+    own)."""
+    grip = sim.body_pos(flower) + [0.0, 0.0, BLOOM_CENTRE]
     return grip, hand_down(across(yaw_of(sim, flower)))
 
 
@@ -114,4 +114,4 @@ class FlowerArrangement(FlowerTask):
 
 def vase_roles(sim: SimHandle) -> tuple[str, str]:
     """(the arm that holds the vase, the arm that puts the flower in): each takes what stands on its side."""
-    return ("left", "right") if sim.body_pos("vase")[1] > sim.body_pos("flower")[1] else ("right", "left")
+    return arms_by_side(sim.body_pos("vase")[1], sim.body_pos("flower")[1])

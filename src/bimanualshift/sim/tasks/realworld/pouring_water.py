@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from bimanualshift.sim.layout import TABLE_TOP_Z
+from bimanualshift.sim.layout import TABLE_TOP_Z, arms_by_side
 from bimanualshift.sim.props.cups import (
     CUP_HEIGHT,
     CUP_RADIUS,
@@ -139,5 +139,5 @@ class PouringWater(PouringTask):
 
 def cup_roles(sim: SimHandle) -> tuple[str, str]:
     """(the arm that holds the empty cup, the arm that pours): each takes the cup on its side."""
-    return ("left", "right") if sim.body_pos("cup_held")[1] > sim.body_pos("cup_full")[1] else ("right", "left")
+    return arms_by_side(sim.body_pos("cup_held")[1], sim.body_pos("cup_full")[1])
 

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from bimanualshift.sim.layout import TABLE_TOP_Z
+from bimanualshift.sim.layout import TABLE_TOP_Z, arms_by_side
 from bimanualshift.sim.props.cloth import QUILT_RADIUS, TAB_HALF, corners, flex_id, place_quilt, quilt_xml
 from bimanualshift.sim.task import ArmAction, Keyframe, SimHandle, Task, register_task
 from bimanualshift.sim.tasks.realworld.block_threading import hand_down
@@ -98,6 +98,5 @@ class QuiltFolding(QuiltTask):
 
 def tab_roles(sim: SimHandle) -> dict[str, str]:
     """Arm -> the tab it takes: each the one on its side (a left-right exchange puts the left tab on the right)."""
-    left_on_left = sim.body_pos("quilt_tab_left")[1] > sim.body_pos("quilt_tab_right")[1]
-    return {"left": "left", "right": "right"} if left_on_left else {"left": "right", "right": "left"}
-
+    arms = arms_by_side(sim.body_pos("quilt_tab_left")[1], sim.body_pos("quilt_tab_right")[1])
+    return dict(zip(arms, ("left", "right"), strict=True))
