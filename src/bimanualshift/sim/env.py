@@ -35,6 +35,7 @@ PROPRIO_DIM = 8
 MODEL_EPISODE_FIELDS = ("body_pos", "body_quat", "geom_rgba", "geom_size", "geom_pos", "geom_quat", "geom_matid",
                         "geom_friction", "body_mass", "jnt_range", "dof_damping", "flex_rgba")
 DATA_STATE_FIELDS = ("qpos", "qvel", "act", "ctrl", "qacc_warmstart")
+MOCAP_STATE_FIELDS = ("mocap_pos", "mocap_quat")  # where a task's mocap bodies (a cable's clamp) hold things
 
 
 @dataclass(frozen=True)
@@ -167,16 +168,17 @@ class ManipulationEnv(gym.Env):
             "body_quat": self.model.body_quat.copy(),
             "geom_rgba": self.model.geom_rgba.copy(),
             "flex_rgba": self.model.flex_rgba.copy(),  # a cloth's colour
+            **{key: getattr(self.data, key).copy() for key in MOCAP_STATE_FIELDS},  # a clamp's pose
             "episode": copy.deepcopy(self.task.episode),
             "keyframe_index": self.keyframe_index,
             "gripper_open": dict(self.gripper_open),
         }
 
     def set_state(self, state: dict[str, Any]) -> None:
-        # states saved before cloths existed have no flex_rgba; their scenes have no flex either
-        flex = ("flex_rgba",) if "flex_rgba" in state else ()
-        for key in (*DATA_STATE_FIELDS, "body_pos", "body_quat", "geom_rgba", *flex):
-            target = getattr(self.data if key in DATA_STATE_FIELDS else self.model, key)
+        # states saved before cloths and clamps existed have no flex_rgba or mocap poses; their scenes had neither
+        optional = tuple(key for key in ("flex_rgba", *MOCAP_STATE_FIELDS) if key in state)
+        for key in (*DATA_STATE_FIELDS, "body_pos", "body_quat", "geom_rgba", *optional):
+            target = getattr(self.data if key in DATA_STATE_FIELDS + MOCAP_STATE_FIELDS else self.model, key)
             if np.shape(state[key]) != target.shape:
                 raise ValueError(f"state[{key!r}] has shape {np.shape(state[key])}, this scene needs {target.shape}")
             target[:] = state[key]

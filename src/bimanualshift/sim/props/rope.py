@@ -22,47 +22,51 @@ REACH = ((-0.22, 0.28), (-0.36, 0.36))  # x, y every segment stays within
 END_MAX_X = 0.14  # a gripper pointing down reaches the table surface only this far from the robots' bases
 
 
-def rope_xml(prefix: str) -> str:
+def rope_xml(prefix: str, radius: float = ROPE_RADIUS, segments: int = ROPE_SEGMENTS, length: float = ROPE_LENGTH,
+             density: float = 300.0, damping: float = 0.02) -> str:
+    """The cable laid straight along +x from the world's origin on the table (an episode shapes it)."""
     # Geoms stay in group 0 here so the compiler counts their mass; ``show_rope`` moves them to group 1.
     return f"""
-<composite prefix="{prefix}_" type="cable" curve="s" count="{ROPE_SEGMENTS + 1} 1 1" size="{ROPE_LENGTH}"
-           offset="0 0 {TABLE_TOP_Z + ROPE_RADIUS}" initial="free">
+<composite prefix="{prefix}_" type="cable" curve="s" count="{segments + 1} 1 1" size="{length}"
+           offset="0 0 {TABLE_TOP_Z + radius}" initial="free">
   <plugin plugin="{CABLE_PLUGIN}">
     <config key="twist" value="2e4"/>
     <config key="bend" value="1e4"/>
     <config key="vmax" value="0"/>
   </plugin>
-  <joint kind="main" damping="0.02"/>
-  <geom type="capsule" size="{ROPE_RADIUS}" rgba="0.8 0.2 0.1 1" condim="3" density="300"
+  <joint kind="main" damping="{damping}"/>
+  <geom type="capsule" size="{radius}" rgba="0.8 0.2 0.1 1" condim="3" density="{density}"
         friction="1.2 0.005 0.0001"/>
 </composite>"""
 
 
-def rope_bodies(prefix: str) -> list[str]:
-    return [f"{prefix}_B_first", *(f"{prefix}_B_{i}" for i in range(1, ROPE_SEGMENTS - 1)), f"{prefix}_B_last"]
+def rope_bodies(prefix: str, segments: int = ROPE_SEGMENTS) -> list[str]:
+    return [f"{prefix}_B_first", *(f"{prefix}_B_{i}" for i in range(1, segments - 1)), f"{prefix}_B_last"]
 
 
-def show_rope(model: mujoco.MjModel, prefix: str) -> None:
-    for name in rope_bodies(prefix):
+def show_rope(model: mujoco.MjModel, prefix: str, segments: int = ROPE_SEGMENTS) -> None:
+    for name in rope_bodies(prefix, segments):
         body = model.body(name).id
         for g in range(model.body_geomadr[body], model.body_geomadr[body] + model.body_geomnum[body]):
             model.geom_group[g] = 1
 
 
-def shape_rope(sim: SimHandle, prefix: str, start: np.ndarray, heading: float, bends: np.ndarray) -> None:
-    """Lay the rope flat from ``start`` (xy) at ``heading`` (rad), turning by ``bends[i]`` at joint i."""
-    sim.set_free_pose(f"{prefix}_J_first", np.r_[start, TABLE_TOP_Z + ROPE_RADIUS],
+def shape_rope(sim: SimHandle, prefix: str, start: np.ndarray, heading: float, bends: np.ndarray,
+               radius: float = ROPE_RADIUS) -> None:
+    """Lay the rope flat from ``start`` (xy) at ``heading`` (rad), turning by ``bends[i]`` at joint i (a rope of
+    ``len(bends) + 1`` segments)."""
+    sim.set_free_pose(f"{prefix}_J_first", np.r_[start, TABLE_TOP_Z + radius],
                       Rotation.from_euler("z", heading).as_quat())
     for i, bend in enumerate(bends, start=1):
-        joint = f"{prefix}_J_{i}" if i < ROPE_SEGMENTS - 1 else f"{prefix}_J_last"
+        joint = f"{prefix}_J_{i}" if i < len(bends) else f"{prefix}_J_last"
         sim.joint_qpos(joint)[:] = np.roll(Rotation.from_euler("z", bend).as_quat(), 1)
         sim.joint_qvel(joint)[:] = 0.0
 
 
-def flat_chain(heading: float, bends: np.ndarray) -> np.ndarray:
+def flat_chain(heading: float, bends: np.ndarray, segment: float = SEGMENT) -> np.ndarray:
     """xy of every segment's start (and the rope's far end) for a flat rope starting at the origin."""
     angles = heading + np.r_[0.0, np.cumsum(bends)]
-    steps = SEGMENT * np.stack([np.cos(angles), np.sin(angles)], axis=1)
+    steps = segment * np.stack([np.cos(angles), np.sin(angles)], axis=1)
     return np.vstack([[0.0, 0.0], np.cumsum(steps, axis=0)])
 
 
@@ -74,10 +78,11 @@ def rope_end_grasp(sim: SimHandle, prefix: str, head: bool) -> tuple[np.ndarray,
     return point, float(np.arctan2(axis[1], axis[0]))
 
 
-def rope_ends(sim: SimHandle, prefix: str) -> tuple[np.ndarray, np.ndarray]:
-    first = sim.body_id(rope_bodies(prefix)[0])
-    last = sim.body_id(rope_bodies(prefix)[-1])
-    tail = sim.data.xpos[last] + sim.data.xmat[last].reshape(3, 3)[:, 0] * SEGMENT
+def rope_ends(sim: SimHandle, prefix: str, segments: int = ROPE_SEGMENTS, segment: float = SEGMENT
+              ) -> tuple[np.ndarray, np.ndarray]:
+    first = sim.body_id(rope_bodies(prefix, segments)[0])
+    last = sim.body_id(rope_bodies(prefix, segments)[-1])
+    tail = sim.data.xpos[last] + sim.data.xmat[last].reshape(3, 3)[:, 0] * segment
     return sim.data.xpos[first].copy(), tail
 
 

@@ -11,6 +11,7 @@ from bimanualshift.sim.tasks.bimanual import (  # noqa: F401
 )
 from bimanualshift.sim.tasks.realworld import (  # noqa: F401
     block_threading,
+    cable_routing,
     flower_arrangement,
     pouring_water,
     quilt_folding,
@@ -35,6 +36,7 @@ from bimanualshift.sim.tasks.unimanual import (  # noqa: F401
     pour_cup,
     press_lever,
     pull_rope_end,
+    route_cable,
     push_ball_aside,
     push_button,
     slide_block,
