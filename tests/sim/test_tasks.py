@@ -96,31 +96,29 @@ def test_invalid_actions_raise_clear_errors(env: ManipulationEnv) -> None:
 # Seeds of these checks that an expert below 100 % misses (results/experts.json has the rates). Strict: a fix shows
 # here as an unexpected pass.
 KNOWN_EXPERT_FAILURES: dict[tuple[str, int], str] = {}
+# Tasks whose physics makes an episode 6-10 s (a cloth, a cable, 40 balls): one seed here; their experts' 100-seed
+# records are results/experts_quilt.json, experts_cable.json and experts_pouring.json.
+ONE_SEED = frozenset({"quilt_folding", "fold_corner", "cable_routing", "route_cable", "pouring_water", "pour_cup"})
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("seed", [11, 12])
-def test_expert_succeeds(env: ManipulationEnv, seed: int, request: pytest.FixtureRequest) -> None:
+def test_expert_succeeds_reaching_every_stage_in_order(env: ManipulationEnv, seed: int,
+                                                       request: pytest.FixtureRequest) -> None:
+    """The expert succeeds, and (stage-wise success) the count of stages done never falls, rises before the end
+    and ends with all of them. One episode checks both: an expert episode is the slow part."""
+    if seed != 11 and env.task.name in ONE_SEED:
+        pytest.skip(f"{env.task.name}: one seed in the suite (ONE_SEED)")
     if (env.task.name, seed) in KNOWN_EXPERT_FAILURES:
         request.applymarker(pytest.mark.xfail(reason=KNOWN_EXPERT_FAILURES[env.task.name, seed], strict=True))
     env.reset(seed=seed, options={"render": False})
     assert not env.success()
-    for keyframe in env.expert_keyframes():
-        env.step(env.action_from_keyframe(keyframe), render=False)
+    done = [env.step(env.action_from_keyframe(keyframe), render=False)[4]["stages_done"]
+            for keyframe in env.expert_keyframes()]
     assert env.success(), f"{env.task.name} expert failed on seed {seed}"
-
-
-@pytest.mark.slow
-def test_expert_reaches_every_stage_in_order(env: ManipulationEnv) -> None:
-    """Stage-wise success: the count of stages done never falls and the expert ends with all of them."""
-    if not env.task.stage_names:
-        pytest.skip("a single-stage task: its success is its only stage")
-    env.reset(seed=11, options={"render": False})
-    done = []
-    for keyframe in env.expert_keyframes():
-        done.append(env.step(env.action_from_keyframe(keyframe), render=False)[4]["stages_done"])
-    assert done == sorted(done) and done[-1] == len(env.task.stage_names)
-    assert done[0] < done[-1]  # the stages are reached one after another, not all at the end
+    if env.task.stage_names:
+        assert done == sorted(done) and done[-1] == len(env.task.stage_names), done
+        assert done[0] < done[-1]  # the stages are reached one after another, not all at the end
 
 
 class ScriptedStages(Task):

@@ -37,6 +37,7 @@ SKILL_PAIRS: dict[str, dict[str, str | dict[str, str]]] = {
     # the vase is the pouring task's cup: held as `hold_cup` holds it, filled as `insert_stem` fills it
     "flower_arrangement": {"cup": {"left": "hold_cup", "right": "insert_stem"}, "flower": "insert_stem"},
     "quilt_folding": {"quilt_tab": "fold_corner"},
+    "cable_routing": {"cable_plug": "route_cable", "clip": "route_cable"},
     "serve_toast": {"toaster": {"left": "steady_toaster", "right": "insert_bread"}, "bread": "insert_bread",
                     "plate": "place_toast"},
 }
@@ -56,7 +57,10 @@ ROUND_KINDS = frozenset({"button", "plate", "ball", "rope_end"})
 # Goal classes compared as one kind: the vegetables a hand grasps the same way (down, across the long axis)
 KIND_ALIASES = {category: "vegetable" for category in VEGETABLES} | {"cup_held": "cup", "cup_full": "cup",
                                                                     "vase": "cup", "quilt_tab_left": "quilt_tab",
-                                                                    "quilt_tab_right": "quilt_tab"}
+                                                                    "quilt_tab_right": "quilt_tab",
+                                                                    "cable_plug_head": "cable_plug",
+                                                                    "cable_plug_tail": "cable_plug",
+                                                                    "clip_left": "clip", "clip_right": "clip"}
 # A bimanual pose is covered when a single-arm sample lies this close (x, y in metres; yaw in radians).
 NEAR_XY = 0.05
 NEAR_YAW = 0.20

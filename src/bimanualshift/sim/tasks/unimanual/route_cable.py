@@ -52,9 +52,10 @@ class RouteCable(CableTask):
         clip = over - line / np.linalg.norm(line) * rng.uniform(*CLIP_FROM_END)
         body = sim.body_id("clip")
         sim.model.body_pos[body] = (*clip, TABLE_TOP_Z)
-        # the clip's gap along the line (its posts either side of it)
-        sim.model.body_quat[body] = np.roll(Rotation.from_euler("z", np.arctan2(line[1], line[0]) - np.pi / 2)
-                                            .as_quat(), 1)
+        # the clip's gap along the line (its posts either side of it), turned the way Cable Routing's clips are
+        # (a clip is the same turned half a turn)
+        yaw = (np.arctan2(line[1], line[0]) - np.pi / 2 + np.pi / 2) % np.pi - np.pi / 2
+        sim.model.body_quat[body] = np.roll(Rotation.from_euler("z", yaw).as_quat(), 1)
         self.episode.update(over=over.tolist(), clamp=clamp.tolist())
 
     def evaluate_success(self, sim: SimHandle) -> bool:
