@@ -44,6 +44,10 @@ def end_body(end: str, name: str = "cable") -> str:
     return bodies[0] if end == "head" else bodies[-1]
 
 
+def _wxyz(turn: Rotation) -> str:
+    return " ".join(f"{q:.6f}" for q in np.roll(turn.as_quat(), 1))
+
+
 def _compiled_plug(end: str) -> np.ndarray:
     """Where the plug at ``end`` is compiled: on its segment of the cable laid straight along +x from the origin."""
     start = np.zeros(3) if end == "head" else np.array([CABLE_LENGTH - CABLE_SEGMENT, 0.0, 0.0])
@@ -57,9 +61,8 @@ def cable_xml(name: str = "cable", anchored: str = "") -> str:
     plugs = welds = ""
     for end in ENDS:  # compiled where it sits on its segment: the weld keeps that relative pose
         x, y, z = _compiled_plug(end)
-        w, qx, qy, qz = np.roll(plug_turn(end).as_quat(), 1)
         plugs += f"""
-<body name="{name}_plug_{end}" pos="{x} {y} {z}" quat="{w:.6f} {qx:.6f} {qy:.6f} {qz:.6f}">
+<body name="{name}_plug_{end}" pos="{x} {y} {z}" quat="{_wxyz(plug_turn(end))}">
   <freejoint name="{name}_plug_{end}_joint"/>
   <inertial pos="0 0 0" mass="0.02" diaginertia="4e-6 4e-6 4e-6"/>
   <geom name="{name}_plug_{end}_geom" type="box" size="{PLUG_HALF[0]} {PLUG_HALF[1]} {PLUG_HALF[2]}"
@@ -68,8 +71,7 @@ def cable_xml(name: str = "cable", anchored: str = "") -> str:
         welds += f'\n  <weld name="{name}_weld_{end}" body1="{name}_plug_{end}" body2="{end_body(end, name)}"/>'
     if anchored:
         x, y, z = _compiled_plug(anchored)
-        w, qx, qy, qz = np.roll(plug_turn(anchored).as_quat(), 1)
-        plugs += f'\n<body name="{name}_anchor" mocap="true" pos="{x} {y} {z}" quat="{w:.6f} {qx:.6f} {qy:.6f} {qz:.6f}"/>'
+        plugs += f'\n<body name="{name}_anchor" mocap="true" pos="{x} {y} {z}" quat="{_wxyz(plug_turn(anchored))}"/>'
         welds += f'\n  <weld name="{name}_clamp" body1="{name}_anchor" body2="{name}_plug_{anchored}"/>'
     cable = rope_xml(name, radius=CABLE_RADIUS, segments=CABLE_SEGMENTS, length=CABLE_LENGTH, density=1000.0,
                       damping=CABLE_DAMPING)
