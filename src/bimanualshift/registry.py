@@ -258,6 +258,11 @@ register_method(_residual_method(
     "per_arm_slots", "variant: the full method before refinement whose keyframe slots belong to arm names (--roles "
     "false, the default before explicit roles; compare with no_refinement on validation seeds)", refine=False,
     retrieval=True))
+register_method(_residual_method(
+    "heading_anchor", "variant: the full method before refinement whose base orientation, at the keyframe slots "
+    "where the training demos grasp at a fixed orientation relative to the goal's end direction, turns with that "
+    "direction instead of being the prior's (residual/heading_anchor.py; compare with no_refinement on validation "
+    "seeds)", refine=False, retrieval=True, heading_anchor=True))
 for _width in (32, 64, 128):
     register_method(_residual_method(
         f"hidden_{_width}", f"variant: the full method before refinement with a Manager of {_width}-wide hidden "

@@ -12,12 +12,14 @@ import pytest
 import torch
 from safetensors import safe_open
 from safetensors.torch import load_file
+from scipy.spatial.transform import Rotation
 
 from bimanualshift.data.frames import KeyframeObservation, scene_of_env
 from bimanualshift.encoders.text import default_text_encoder
 from bimanualshift.geometry.frames import compose_rotation, nearest_grasp_twin, quat_to_euler_bins
 from bimanualshift.memory.bank import MemoryBank
 from bimanualshift.methods.bimanualshift import MEMORY_FILE, BimanualShift, load_bimanualshift
+from bimanualshift.residual.heading_anchor import goal_heading
 from bimanualshift.residual.manager import action_lattice
 from bimanualshift.rollout.loop import rollout
 from bimanualshift.sim.env import ManipulationEnv
@@ -300,3 +302,28 @@ def test_slot_twin_references_are_saved_and_steer_the_corrections(demo_root: Pat
         # the corrector's orientation or its half-turn twin, whichever is nearer the arm's keyframe-0 reference
         chosen = nearest_grasp_twin(quat, config.twin_reference(i, 0))
         assert abs(abs(float(np.dot(target, chosen))) - 1.0) < 1e-5
+
+
+def test_heading_anchors_are_fitted_saved_and_turn_the_base_the_corrections_are_relative_to(
+        demo_root: Path, trained: Path, tmp_path: Path) -> None:
+    prior = json.loads((trained / "config.json").read_text())["prior"]
+    best = train_residual(config_from_flat(TrainConfig, prior=prior, data=str(demo_root / "bimanual"),
+                                           validation_data=str(demo_root / "bimanual"), out=str(tmp_path / "h"),
+                                           steps=2, checkpoint_every=2, demos=2, retrieval=True,
+                                           retrieval_threshold=-1.0, heading_anchor=True))
+    policy = load_bimanualshift(best, default_text_encoder())
+    config = policy.residual.config
+    assert config.heading_anchor and len(config.heading_anchors) == 4 * config.phase_dim  # fitted on the demos
+    # every slot anchored to one grasp: each arm's first base orientation is then that grasp turned by its goal's
+    # end direction, and the corrections are taken relative to it
+    anchor = Rotation.from_euler("xz", [np.pi, 0.4]).as_quat()
+    policy.residual.config = replace(config, heading_anchors=tuple(anchor) * config.phase_dim)
+    plan, _, _, correction, first = _fully_corrected(policy, keyframes=1)
+    for i, decision in enumerate(first):
+        heading, seen = goal_heading(decision.step.goal[None])
+        assert seen[0]
+        expected = (Rotation.from_euler("z", heading[0]) * Rotation.from_quat(anchor)).as_quat()
+        assert abs(abs(float(np.dot(decision.step.prior.quat[0].numpy(), expected))) - 1.0) < 1e-5
+        _, quat = decision.step.frame.pose_to_arm(plan[0][i][:3], plan[0][i][3:7])
+        target = compose_rotation(decision.step.prior.quat[0].numpy(), correction.rotation[i])
+        assert abs(abs(float(np.dot(target, quat))) - 1.0) < 1e-5

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -24,7 +24,8 @@ from bimanualshift.residual.checkpoint import (
     read_residual_config,
     save_residual_checkpoint,
 )
-from bimanualshift.residual.manager import ResidualPolicy, action_lattice, manager_input_rows
+from bimanualshift.residual.heading_anchor import anchored_base
+from bimanualshift.residual.manager import ResidualPolicy, action_lattice, manager_input_rows, phase_one_hot
 from bimanualshift.utils.hub import resolve_local
 
 MEMORY_FILE = "memory.safetensors"  # the frozen memory bank, beside the residual's weights
@@ -115,7 +116,7 @@ class BimanualShift:
             self._roles = dict(zip(arms, (int(r) for r in self.role_assigner.assign(features)), strict=True))
         decisions = []
         for i, arm in enumerate(arms):
-            s = steps[arm]
+            s = self._anchored(steps[arm], i, obs.keyframe_index, self._roles.get(arm))
             reference = None
             if self.memory is not None:
                 step = self.alignment.step_of(i, s.proprio[:3], float(s.proprio[7])) if self.alignment else 0
@@ -139,6 +140,17 @@ class BimanualShift:
             for entry in self._log:
                 entry["role"] = self._roles[entry["arm"]]
         return decisions
+
+    def _anchored(self, step: ArmStep, arm_index: int, keyframe: int, role: int | None) -> ArmStep:
+        """The arm's step with the heading anchor's orientation as the prior's where its slot is anchored
+        (residual/heading_anchor.py): the Manager, the residual, the memory and refinement's targets all see it."""
+        config = self.residual.config
+        if not config.heading_anchor:
+            return step
+        phase = phase_one_hot(config, torch.tensor([keyframe]), torch.tensor([arm_index]),
+                              None if role is None else torch.tensor([role]))
+        base = anchored_base(config.heading_anchors, phase, torch.as_tensor(step.goal)[None], step.prior.base_action())
+        return replace(step, prior=replace(step.prior, quat=base[:, 3:7]))
 
     def final_action(self, arm: str, step: ArmStep, out: dict[str, torch.Tensor]) -> tuple[np.ndarray, bool]:
         """The world-frame action of one arm from the prior's and the residual's outputs, and whether the arm holds.

@@ -149,6 +149,9 @@ class ResidualModelConfig:
     # comes as either twin at random, and the residual averages the two turns; docs/residual-variants.md), or
     # "slot_twin" (the twin nearer the training demos' mean grasp at the same arm and keyframe slot).
     rotation_target: str = "expert"
+    # The heading anchor (residual/heading_anchor.py): where the demos grasp at a fixed orientation relative to the
+    # goal's end direction, the base orientation turns with that direction instead of being the prior's.
+    heading_anchor: bool = False
     # What the frozen prior is asked: "" the episode's own instruction (the paper), "auto" the instruction of the
     # prior's pretraining suite whose proposals lie closest to the training demos' keyframes when it clearly beats
     # the task's own (training/prior_instruction.py), "per_arm" per arm the instruction a classifier picks from
@@ -184,7 +187,8 @@ class ResidualModelConfig:
                               action_cell_m=self.action_cell_m,
                               rotation_bins=rotation_bins if self.action_space else 0,
                               quaternion_sign=self.quaternion_sign, rotation_target=self.rotation_target,
-                              start_goal_dim=GOAL_GEOMETRY_DIM if self.goal_at_start else 0)
+                              start_goal_dim=GOAL_GEOMETRY_DIM if self.goal_at_start else 0,
+                              heading_anchor=self.heading_anchor)
 
 
 @dataclass

@@ -25,7 +25,8 @@ from bimanualshift.methods.prior_step import FrozenPriorStep
 from bimanualshift.methods.role_assigner import RoleAssigner
 from bimanualshift.perception.arm_samples import ArmSamples, build_arm_samples
 from bimanualshift.priors.base import PriorOutput, UnimanualPrior
-from bimanualshift.residual.manager import ResidualConfig, action_lattice, manager_input_rows
+from bimanualshift.residual.heading_anchor import anchored_base, fit_anchors
+from bimanualshift.residual.manager import ResidualConfig, action_lattice, manager_input_rows, phase_one_hot
 from bimanualshift.training.augment import (
     Se3Augmentation,
     sample_motion,
@@ -55,6 +56,8 @@ class ResidualData:
     target_bins: torch.Tensor | None = None
     # "slot_twin"'s references the rotation targets were taken towards (``ResidualConfig.twin_references``)
     twin_references: tuple[float, ...] = ()
+    # the heading anchor's per-slot grasps the base orientations were turned to (``ResidualConfig.heading_anchors``)
+    heading_anchors: tuple[float, ...] = ()
 
     def __len__(self) -> int:
         return len(self.inputs)
@@ -186,6 +189,12 @@ def residual_data(config: ResidualConfig, paths: list[Path], prior_step: FrozenP
         slots = config.phase_slot(samples.keyframe)
         twin_reference = torch.as_tensor(np.stack([config.twin_reference(int(a), int(s))
                                                    for a, s in zip(arm_index, slots)]))
+    phase = None  # (N, phase_dim) with the heading anchor: each row's (arm or role, keyframe) slot
+    if config.heading_anchor:
+        phase = phase_one_hot(config, torch.as_tensor(samples.keyframe), arm_index, role)
+        if not config.heading_anchors:  # training data: the anchors come from these very demos
+            config = replace(config, heading_anchors=fit_anchors(phase.argmax(-1).numpy(), config.phase_dim,
+                                                                 samples.goal, samples.action_quat)[0])
     parts = []
     for copy in range(1 + augment_copies):
         if copy == 0:
@@ -211,6 +220,10 @@ def residual_data(config: ResidualConfig, paths: list[Path], prior_step: FrozenP
                 if config.action_space:
                     action_parts.append(action_space_targets(prior_step.prior, out, config, moved_pos[sl], quat[sl]))
         features_t, base_t = torch.cat(features), torch.cat(base)
+        moved_goal = (transform_goal_geometry(torch.as_tensor(samples.goal), grid, yaw, shift) if config.goal_dim
+                      else None)
+        if phase is not None:  # the anchored slots' base orientation turns with the goal's end (as moved)
+            base_t = anchored_base(config.heading_anchors, phase, moved_goal, base_t)
         proposal_t = torch.cat(proposal) if proposal else None
         if copy == 0:
             first_features = features_t
@@ -222,8 +235,7 @@ def residual_data(config: ResidualConfig, paths: list[Path], prior_step: FrozenP
         if memory is not None:
             reference = retrieved_references(samples, first_features, text, base_t, memory, own_memory,
                                              (grid, yaw, shift))
-        goal = (transform_goal_geometry(torch.as_tensor(samples.goal), grid, yaw, shift) if config.goal_dim
-                else None)
+        goal = moved_goal if config.goal_dim else None
         # the episode's first keyframe's goal, seen through this row's motion (the whole scene moves as one)
         start_goal = (transform_goal_geometry(torch.as_tensor(samples.goal[first_rows(samples)]), grid, yaw, shift)
                       if config.start_goal_dim else None)
@@ -243,7 +255,8 @@ def residual_data(config: ResidualConfig, paths: list[Path], prior_step: FrozenP
     fields = ("inputs", "translation", "rotation", *TARGET_FIELDS)
     merged = {f: (None if getattr(parts[0], f) is None else torch.cat([getattr(p, f) for p in parts]))
               for f in fields}
-    return ResidualData(**merged, memory=memory, twin_references=config.twin_references)
+    return ResidualData(**merged, memory=memory, twin_references=config.twin_references,
+                        heading_anchors=config.heading_anchors)
 
 
 def first_rows(samples: ArmSamples) -> np.ndarray:

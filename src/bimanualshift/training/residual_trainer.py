@@ -79,8 +79,9 @@ def load_earlier(init_from: str, rcfg: ResidualConfig, retrieval: bool
     checkpoint = earlier_checkpoint(init_from)
     earlier = read_json_file(checkpoint / "config.json")
     # "slot_twin"'s mean grasps come from each task's own demos, so they may differ (and JSON holds them as a list)
-    ours = {**asdict(rcfg), "twin_references": None}
-    if not isinstance(earlier.get("residual"), dict) or {**earlier["residual"], "twin_references": None} != ours:
+    fitted = {"twin_references": None, "heading_anchors": None}  # fitted on each run's own demos
+    ours = {**asdict(rcfg), **fitted}
+    if not isinstance(earlier.get("residual"), dict) or {**earlier["residual"], **fitted} != ours:
         raise ValueError(f"init_from={init_from!r} has residual config {earlier.get('residual')}, this run needs "
                          f"{asdict(rcfg)}; continue from a run with the same prior, text encoder and switches")
     memory = MemoryBank.load(checkpoint / MEMORY_FILE) if retrieval and (checkpoint / MEMORY_FILE).is_file() else None
@@ -211,7 +212,8 @@ def train_residual(cfg: TrainConfig, prior: UnimanualPrior | None = None) -> Pat
                           build_memory=model.retrieval_threshold if model.retrieval else None, task=data.task,
                           earlier_memory=earlier_memory, samples=samples)
     memory = train.memory
-    rcfg = replace(rcfg, twin_references=train.twin_references)  # "slot_twin": the training demos' mean grasps
+    # "slot_twin"'s and the heading anchor's references: the training demos' mean grasps
+    rcfg = replace(rcfg, twin_references=train.twin_references, heading_anchors=train.heading_anchors)
     val = residual_data(rcfg, val_paths, prior_step, text_encoder, "prior outputs (val)",
                         memory=memory, samples=val_samples,
                         role_assigner=assigner) if val_paths else train
