@@ -22,6 +22,7 @@ CABLE_LENGTH = 0.44
 CABLE_SEGMENT = CABLE_LENGTH / CABLE_SEGMENTS
 CABLE_DAMPING = 0.2  # at its joints, ten times the rope's: a cable carried high stops swinging before it is laid
 PLUG_HALF = (0.015, 0.015, 0.02)  # a plug is 3 x 3 cm, 4 cm tall, its foot on the table
+PLUG_CENTRES = CABLE_LENGTH + 2 * PLUG_HALF[0]  # between the two plugs' centres along a straight cable
 ENDS = ("head", "tail")  # the cable's first and last segments
 POST_HALF = (0.006, 0.015, 0.02)  # a clip's post: 1.2 cm across the cable, 3 cm along it, 4 cm tall
 CLIP_GAP = 0.032  # between a clip's two posts (inner faces): 2.6 times the cable's width

@@ -14,6 +14,7 @@ from bimanualshift.sim.props.cable import (
     CABLE_SEGMENT,
     CABLE_SEGMENTS,
     ENDS,
+    PLUG_CENTRES,
     PLUG_HALF,
     cable_xml,
     clip_xml,
@@ -31,7 +32,7 @@ CABLE_BEFORE = (0.07, 0.10)  # the cable starts this far before the clips' line 
 HEAD_Y = (0.20, 0.23)  # the cable's head (its +y end)
 TURN = np.deg2rad(3.0)  # the cable's direction wanders by up to twice this from its start's, smoothly
 LIFT = 0.18  # a plug's centre this high above the table while the cable is carried: it hangs clear of the clips
-SPAN = 0.46  # the plugs carried this far apart (their centres; 1 cm less than the straight cable: slack arches it)
+SPAN = PLUG_CENTRES - 0.01  # the plugs carried this far apart: 1 cm short of straight (more slack arches it)
 LAID = 0.005  # a plug lowered until its foot is this high above the table
 
 

@@ -11,7 +11,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from bimanualshift.sim.layout import TABLE_TOP_Z, skill_side
-from bimanualshift.sim.props.cable import PLUG_HALF, anchor_plug, cable_xml, clip_xml, through_clip
+from bimanualshift.sim.props.cable import PLUG_CENTRES, PLUG_HALF, anchor_plug, cable_xml, clip_xml, through_clip
 from bimanualshift.sim.task import Keyframe, SimHandle, register_task
 from bimanualshift.sim.tasks.realworld.cable_routing import (
     CABLE_BEFORE,
@@ -24,7 +24,6 @@ from bimanualshift.sim.tasks.realworld.cable_routing import (
 
 PLUG_Y = (0.04, 0.09)  # |y| of the near plug from the arm's base
 CLIP_FROM_END = (0.13, 0.16)  # the clip stands this far from where the plug is laid, towards the clamp
-PLUG_CENTRES = 0.47  # between the two plugs' centres along a straight cable
 
 
 @register_task("route_cable")
