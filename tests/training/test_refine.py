@@ -19,7 +19,7 @@ from bimanualshift.encoders.text import default_text_encoder
 from bimanualshift.geometry.frames import compose_rotation, nearest_grasp_twin, quat_to_euler_bins
 from bimanualshift.memory.bank import MemoryBank
 from bimanualshift.methods.bimanualshift import MEMORY_FILE, BimanualShift, load_bimanualshift
-from bimanualshift.residual.heading_anchor import goal_heading
+from bimanualshift.residual.heading_anchor import ANCHOR_WIDTH, FRAMES, goal_heading
 from bimanualshift.residual.manager import action_lattice
 from bimanualshift.rollout.loop import rollout
 from bimanualshift.sim.env import ManipulationEnv
@@ -313,11 +313,11 @@ def test_heading_anchors_are_fitted_saved_and_turn_the_base_the_corrections_are_
                                            retrieval_threshold=-1.0, heading_anchor=True))
     policy = load_bimanualshift(best, default_text_encoder())
     config = policy.residual.config
-    assert config.heading_anchor and len(config.heading_anchors) == 4 * config.phase_dim  # fitted on the demos
-    # every slot anchored to one grasp: each arm's first base orientation is then that grasp turned by its goal's
-    # end direction, and the corrections are taken relative to it
+    assert config.heading_anchor and len(config.heading_anchors) == ANCHOR_WIDTH * config.phase_dim  # fitted
+    # every slot anchored to one grasp in the goal's frame: each arm's first base orientation is then that grasp
+    # turned by its goal's end direction, and the corrections are taken relative to it
     anchor = Rotation.from_euler("xz", [np.pi, 0.4]).as_quat()
-    policy.residual.config = replace(config, heading_anchors=tuple(anchor) * config.phase_dim)
+    policy.residual.config = replace(config, heading_anchors=(FRAMES.index("goal"), *anchor) * config.phase_dim)
     plan, _, _, correction, first = _fully_corrected(policy, keyframes=1)
     for i, decision in enumerate(first):
         heading, seen = goal_heading(decision.step.goal[None])

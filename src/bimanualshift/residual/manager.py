@@ -9,6 +9,7 @@ import torch
 from torch import nn
 
 from bimanualshift.geometry.torch_rotations import quat_toward
+from bimanualshift.residual.heading_anchor import ANCHOR_WIDTH
 from bimanualshift.residual.skills import SkillBasis
 
 QUATERNION_SIGNS = ("w_positive", "gripper_down")
@@ -78,10 +79,11 @@ class ResidualConfig:
     # the tray's side takes it), and one block per arm name would average the two roles' keyframe targets.
     # ``methods/role_assigner.py`` decides the roles at an episode's first keyframe; the demos' give the labels.
     role_phase: bool = False
-    # The heading anchor (residual/heading_anchor.py): at the phase slots where the demos grasp at a fixed
-    # orientation relative to the goal's end direction, the base orientation is Rz(heading) * that mean instead of
-    # the prior's (training, refinement and inference alike). ``heading_anchors`` holds one quaternion per phase
-    # slot (zeros: not anchored), fitted on the training demos.
+    # The heading anchor (residual/heading_anchor.py): at the phase slots where the demos grasp steadier (on the
+    # table, or relative to the goal's end direction) than the prior proposes, the base orientation is the demos'
+    # mean grasp instead of the prior's (training, refinement and inference alike). ``heading_anchors`` holds, per
+    # phase slot, the frame and the mean grasp (``ANCHOR_WIDTH`` numbers; zeros: not anchored), fitted on the
+    # training demos.
     heading_anchor: bool = False
     heading_anchors: tuple[float, ...] = ()
 
@@ -96,9 +98,9 @@ class ResidualConfig:
         if self.heading_anchor and not (self.phase_dim and self.goal_dim):
             raise ValueError("the heading anchor fits one orientation per keyframe slot from the goal's direction: it "
                              "needs the phase one-hot (--phase-slots > 0) and the goal geometry (--goal-geometry)")
-        if self.heading_anchors and len(self.heading_anchors) != 4 * self.phase_dim:
-            raise ValueError(f"heading_anchors holds {len(self.heading_anchors)} numbers; a quaternion per slot of the "
-                             f"phase one-hot is {4 * self.phase_dim}")
+        if self.heading_anchors and len(self.heading_anchors) != ANCHOR_WIDTH * self.phase_dim:
+            raise ValueError(f"heading_anchors holds {len(self.heading_anchors)} numbers; a frame and a quaternion per "
+                             f"slot of the phase one-hot is {ANCHOR_WIDTH * self.phase_dim}")
         if self.twin_references and len(self.twin_references) != 4 * self.num_arms * self.slots_per_arm:
             raise ValueError(f"twin_references holds {len(self.twin_references)} numbers; a quaternion per (arm, "
                              f"keyframe slot) of the phase one-hot is {4 * self.num_arms * self.slots_per_arm}")

@@ -192,9 +192,6 @@ def residual_data(config: ResidualConfig, paths: list[Path], prior_step: FrozenP
     phase = None  # (N, phase_dim) with the heading anchor: each row's (arm or role, keyframe) slot
     if config.heading_anchor:
         phase = phase_one_hot(config, torch.as_tensor(samples.keyframe), arm_index, role)
-        if not config.heading_anchors:  # training data: the anchors come from these very demos
-            config = replace(config, heading_anchors=fit_anchors(phase.argmax(-1).numpy(), config.phase_dim,
-                                                                 samples.goal, samples.action_quat)[0])
     parts = []
     for copy in range(1 + augment_copies):
         if copy == 0:
@@ -222,8 +219,12 @@ def residual_data(config: ResidualConfig, paths: list[Path], prior_step: FrozenP
         features_t, base_t = torch.cat(features), torch.cat(base)
         moved_goal = (transform_goal_geometry(torch.as_tensor(samples.goal), grid, yaw, shift) if config.goal_dim
                       else None)
-        if phase is not None:  # the anchored slots' base orientation turns with the goal's end (as moved)
-            base_t = anchored_base(config.heading_anchors, phase, moved_goal, base_t)
+        if phase is not None:
+            if not config.heading_anchors:  # training data: the anchors come from these very demos and prior
+                config = replace(config, heading_anchors=fit_anchors(
+                    phase.argmax(-1).numpy(), config.phase_dim, samples.goal, samples.action_quat,
+                    base_t[:, 3:7].numpy())[0])
+            base_t = anchored_base(config.heading_anchors, phase, moved_goal, base_t, yaw)
         proposal_t = torch.cat(proposal) if proposal else None
         if copy == 0:
             first_features = features_t
