@@ -50,7 +50,13 @@ def test_keyboard_teleop_moves_the_selected_arm() -> None:
         robot.disconnect()
 
 
-@pytest.mark.parametrize("task", [t for t in task_names(robot="ur5e") if task_class(t).paper_keyframes])
+# A cloth, a cable or 40 balls make a teleoperated episode 10-15 s; their experts' keyframe counts are checked
+# against the table in tests/sim/test_tasks.py, and the discovery below on the twin's rigid-object tasks.
+SLOW_PHYSICS = frozenset({"quilt_folding", "cable_routing", "pouring_water"})
+
+
+@pytest.mark.parametrize("task", [t for t in task_names(robot="ur5e")
+                                  if task_class(t).paper_keyframes and t not in SLOW_PHYSICS])
 def test_a_teleoperated_twin_demo_has_its_tables_keyframe_count(task: str, tmp_path: Path) -> None:
     # the scripted leader moves as a person would: on to the next pose without stopping, a pause at each key pose,
     # seconds-long stops where a push is blocked; discovery must give one keyframe per key pose all the same
