@@ -10,22 +10,17 @@ and from the same projection and segmentation training uses. Nothing is trained 
 
 from __future__ import annotations
 
-import argparse
-import sys
 import time
 
 import numpy as np
+from demo_goals import demo_arguments, goal_builder, task_demos
 from tqdm import tqdm
 
-from bimanualshift.data.episode import list_episodes, read_episode
+from bimanualshift.data.episode import read_episode
 from bimanualshift.data.frames import KeyframeObservation
 from bimanualshift.evaluation.report import invoked_command, write_result
 from bimanualshift.geometry.frames import ArmFrame
-from bimanualshift.geometry.voxels import VoxelGrid
 from bimanualshift.perception.goal_geometry import BOX_GEOMETRY_DIM
-from bimanualshift.perception.observation import DEFAULT_ARM_BOUNDS, ArmObservationBuilder
-from bimanualshift.perception.projection import ArmProjection
-from bimanualshift.perception.segmenters.simulator import SimulatorSegmenter
 from bimanualshift.utils.pipes import quiet_on_closed_pipe
 
 
@@ -38,19 +33,12 @@ def summary(name: str, errors: list[float]) -> dict[str, float]:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--data", default="data/bench/train", help="a folder of bimanual demos (<task>/episode_*.h5)")
-    parser.add_argument("--tasks", nargs="+", default=["straighten_rope"])
-    parser.add_argument("--out", default="results/goal_extremities.json")
-    args = parser.parse_args()
+    args = demo_arguments(__doc__, "results/goal_extremities.json")
     started = time.time()
-    builder = ArmObservationBuilder(VoxelGrid(DEFAULT_ARM_BOUNDS, 16), ArmProjection(SimulatorSegmenter()),
-                                    voxels=False, points=1)
+    builder = goal_builder()
     rows, seeds = [], {}
     for task in args.tasks:
-        paths = list_episodes(args.data, task)
-        if not paths:
-            sys.exit(f"error: no demos of {task} under {args.data}")
+        paths = task_demos(args.data, task)
         centroid, tip = [], []
         for path in tqdm(paths, desc=task, unit="ep"):
             episode = read_episode(path)

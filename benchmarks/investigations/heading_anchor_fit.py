@@ -14,39 +14,27 @@ is trained or run here.
 
 from __future__ import annotations
 
-import argparse
-import sys
 import time
 
 import numpy as np
+from demo_goals import demo_arguments, goal_builder, task_demos
 from tqdm import tqdm
 
-from bimanualshift.data.episode import list_episodes, read_episode
+from bimanualshift.data.episode import read_episode
 from bimanualshift.data.frames import KeyframeObservation
 from bimanualshift.evaluation.report import invoked_command, write_result
 from bimanualshift.geometry.frames import ArmFrame
-from bimanualshift.geometry.voxels import VoxelGrid
-from bimanualshift.perception.observation import DEFAULT_ARM_BOUNDS, ArmObservationBuilder
-from bimanualshift.perception.projection import ArmProjection
-from bimanualshift.perception.segmenters.simulator import SimulatorSegmenter
 from bimanualshift.residual.heading_anchor import fit_anchors
 from bimanualshift.utils.pipes import quiet_on_closed_pipe
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--data", default="data/bench/train", help="a folder of bimanual demos (<task>/episode_*.h5)")
-    parser.add_argument("--tasks", nargs="+", default=["straighten_rope"])
-    parser.add_argument("--out", default="results/issue54/heading_anchor_fit.json")
-    args = parser.parse_args()
+    args = demo_arguments(__doc__, "results/issue54/heading_anchor_fit.json")
     started = time.time()
-    builder = ArmObservationBuilder(VoxelGrid(DEFAULT_ARM_BOUNDS, 16), ArmProjection(SimulatorSegmenter()),
-                                    voxels=False, points=1)
+    builder = goal_builder()
     rows, seeds = [], {}
     for task in args.tasks:
-        paths = list_episodes(args.data, task)
-        if not paths:
-            sys.exit(f"error: no demos of {task} under {args.data}")
+        paths = task_demos(args.data, task)
         slots, goals, quats, names = [], [], [], {}
         keyframes = max(read_episode(p)["actions"].shape[0] for p in paths)
         for path in tqdm(paths, desc=task, unit="ep"):
