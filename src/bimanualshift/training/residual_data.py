@@ -56,7 +56,8 @@ class ResidualData:
     target_bins: torch.Tensor | None = None
     # "slot_twin"'s references the rotation targets were taken towards (``ResidualConfig.twin_references``)
     twin_references: tuple[float, ...] = ()
-    # the heading anchor's per-slot grasps the base orientations were turned to (``ResidualConfig.heading_anchors``)
+    # the heading anchor's per-slot frame and grasp the base orientations were set to
+    # (``ResidualConfig.heading_anchors``)
     heading_anchors: tuple[float, ...] = ()
 
     def __len__(self) -> int:
@@ -236,7 +237,7 @@ def residual_data(config: ResidualConfig, paths: list[Path], prior_step: FrozenP
         if memory is not None:
             reference = retrieved_references(samples, first_features, text, base_t, memory, own_memory,
                                              (grid, yaw, shift))
-        goal = moved_goal if config.goal_dim else None
+        goal = moved_goal
         # the episode's first keyframe's goal, seen through this row's motion (the whole scene moves as one)
         start_goal = (transform_goal_geometry(torch.as_tensor(samples.goal[first_rows(samples)]), grid, yaw, shift)
                       if config.start_goal_dim else None)
