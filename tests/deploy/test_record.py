@@ -16,6 +16,8 @@ from bimanualshift.deploy.teleop import KeyboardTeleop, ScriptedTeleop
 from bimanualshift.sim.keyframes import discover_keyframes
 from bimanualshift.sim.task_registry import task_class, task_names
 
+from suite_tasks import SLOW_PHYSICS
+
 pytestmark = pytest.mark.slow
 
 
@@ -50,11 +52,8 @@ def test_keyboard_teleop_moves_the_selected_arm() -> None:
         robot.disconnect()
 
 
-# A cloth, a cable or 40 balls make a teleoperated episode 10-15 s; their experts' keyframe counts are checked
-# against the table in tests/sim/test_tasks.py, and the discovery below on the twin's rigid-object tasks.
-SLOW_PHYSICS = frozenset({"quilt_folding", "cable_routing", "pouring_water"})
-
-
+# A cloth, a cable or 40 balls make a teleoperated episode 10-15 s (SLOW_PHYSICS); their experts' keyframe counts are
+# checked against the table in tests/sim/test_tasks.py, and the discovery below on the twin's rigid-object tasks.
 @pytest.mark.parametrize("task", [t for t in task_names(robot="ur5e")
                                   if task_class(t).paper_keyframes and t not in SLOW_PHYSICS])
 def test_a_teleoperated_twin_demo_has_its_tables_keyframe_count(task: str, tmp_path: Path) -> None:

@@ -8,7 +8,8 @@ import pytest
 from bimanualshift.core.colours import TRAIN_COLOURS, UNSEEN_COLOURS
 from bimanualshift.sim.env import ManipulationEnv
 from bimanualshift.sim.perturbations import PRESETS, Perturbations, preset
-from bimanualshift.sim.task_registry import task_names
+
+from suite_tasks import suite_tasks
 
 TASK, SEED = "push_two_buttons", 3
 
@@ -48,7 +49,7 @@ MIRROR_EXPERT_FAILURES = {"pouring_water": "the left arm's pour towards its righ
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("task", task_names(bimanual=True))
+@pytest.mark.parametrize("task", suite_tasks(bimanual=True))
 def test_swap_sides_mirrors_the_layout_and_the_expert_still_succeeds(task: str, request: pytest.FixtureRequest
                                                                      ) -> None:
     plain = ManipulationEnv(task, image_size=32, perturbations=Perturbations())

@@ -12,10 +12,11 @@ from bimanualshift.sim.env import InvalidActionError, ManipulationEnv
 from bimanualshift.sim.task import TASKS, SimHandle, Task, register_task
 from bimanualshift.sim.task_registry import task_names
 
-# Every task built for a robot, and two of the Panda tasks' UR5e variants: each variant's expert is checked on 100
-# seeds in results/experts_ur5e.json, and these tests cover what the variant changes (the robot) on both specs.
-SAMPLED_VARIANTS = ("pick_cube@ur5e", "push_two_buttons@ur5e")
-ALL_TASKS = [t for t in task_names() if "@" not in t or t in SAMPLED_VARIANTS]
+from suite_tasks import suite_tasks
+
+# Every task built for a robot, and two of the Panda tasks' UR5e variants: these tests cover what a variant changes
+# (the robot) on both specs.
+ALL_TASKS = suite_tasks()
 
 
 @pytest.fixture(scope="module", params=ALL_TASKS)
@@ -93,23 +94,18 @@ def test_invalid_actions_raise_clear_errors(env: ManipulationEnv) -> None:
         env.step(far)
 
 
-# Seeds of these checks that an expert below 100 % misses (results/experts.json has the rates). Strict: a fix shows
+# Seeds of this check that an expert below 100 % misses (results/experts*.json have the rates). Strict: a fix shows
 # here as an unexpected pass.
 KNOWN_EXPERT_FAILURES: dict[tuple[str, int], str] = {}
-# Tasks whose physics makes an episode 6-10 s (a cloth, a cable or rope, 40 balls): one seed here; their experts'
-# 100-seed records are results/experts_quilt.json, experts_cable.json, experts_pouring.json and experts.json.
-ONE_SEED = frozenset({"quilt_folding", "fold_corner", "cable_routing", "route_cable", "pouring_water", "pour_cup",
-                      "straighten_rope", "pull_rope_end"})
+# One seed per task: every expert's 100-seed record is in results/experts*.json; this catches a change that breaks it.
+EXPERT_SEED = 11
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("seed", [11, 12])
-def test_expert_succeeds_reaching_every_stage_in_order(env: ManipulationEnv, seed: int,
-                                                       request: pytest.FixtureRequest) -> None:
+def test_expert_succeeds_reaching_every_stage_in_order(env: ManipulationEnv, request: pytest.FixtureRequest) -> None:
     """The expert succeeds, and (stage-wise success) the count of stages done never falls, rises before the end
     and ends with all of them. One episode checks both: an expert episode is the slow part."""
-    if seed != 11 and env.task.name in ONE_SEED:
-        pytest.skip(f"{env.task.name}: one seed in the suite (ONE_SEED)")
+    seed = EXPERT_SEED
     if (env.task.name, seed) in KNOWN_EXPERT_FAILURES:
         request.applymarker(pytest.mark.xfail(reason=KNOWN_EXPERT_FAILURES[env.task.name, seed], strict=True))
     env.reset(seed=seed, options={"render": False})
