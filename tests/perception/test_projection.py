@@ -135,3 +135,25 @@ def test_voxel_masks_are_the_voxels_of_each_arms_kept_pixels(bimanual_episode_pa
         # Equal up to float32 rounding of points that lie on a voxel boundary.
         assert np.count_nonzero(masks3d[arm] != expected) <= max(2, 0.005 * expected.sum())
     assert not np.array_equal(masks3d["left"], masks3d["right"])
+
+
+def test_each_arm_drops_clutter_in_its_goals_colours() -> None:
+    """The clutter perturbation's pieces share the goal buttons' colours: each arm's mask keeps its buttons and
+    none of the pieces, which a policy reading the whole scene still sees."""
+    from bimanualshift.data.frames import scene_of_env
+    from bimanualshift.sim.env import ManipulationEnv
+    from bimanualshift.sim.perturbations import preset
+
+    env = ManipulationEnv("push_two_buttons", image_size=64, perturbations=preset("clutter"))
+    obs = KeyframeObservation.from_env(env.reset(seed=5)[0], scene_of_env(env))
+    names = env.instances.names
+    clutter = np.isin(obs.instance, [i for i, n in enumerate(names) if n.startswith("clutter_")])
+    named = {prompt.split()[0] for prompt in env.task.goal_nouns()}
+    goal = np.isin(obs.instance, [i for i, n in enumerate(names) if n.startswith("button")
+                                  and named & set(env.instance_colours()[n])])
+    assert clutter.sum() > 20 and goal.any()
+    masks = ArmProjection(SimulatorSegmenter()).masks_2d(obs)
+    for arm in ("left", "right"):
+        assert not masks[arm][clutter].any()
+        assert masks[arm][goal].mean() > 0.99
+    env.close()

@@ -7,7 +7,7 @@ import pytest
 
 from bimanualshift.core.colours import TRAIN_COLOURS, UNSEEN_COLOURS
 from bimanualshift.sim.env import ManipulationEnv
-from bimanualshift.sim.perturbations import PRESETS, Perturbations, preset
+from bimanualshift.sim.perturbations import PRESETS, REGIME_PRESETS, Perturbations, preset
 
 from suite_tasks import suite_tasks
 
@@ -27,7 +27,7 @@ def baseline() -> np.ndarray:
     return image
 
 
-@pytest.mark.parametrize("name", [n for n in PRESETS if n != "none"])
+@pytest.mark.parametrize("name", [n for n in (*PRESETS, *REGIME_PRESETS) if n != "none"])
 def test_every_preset_changes_the_front_camera(name: str, baseline: np.ndarray) -> None:
     image, env = front_image(preset(name))
     env.close()

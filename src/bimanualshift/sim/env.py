@@ -17,14 +17,16 @@ import gymnasium as gym
 import mujoco
 import numpy as np
 
+from bimanualshift.core.goal_nouns import split_prompt
 from bimanualshift.geometry.frames import ArmFrame, canonical_quat, rotation_angle, slerp
 from bimanualshift.sim.arm_control import ArmIndexes, OscArms
 from bimanualshift.sim.cameras import CameraRig, default_camera_names, wrist_camera_names
 from bimanualshift.sim.layout import TABLE_TOP_Z, WORKSPACE_HIGH, WORKSPACE_LOW
 from bimanualshift.sim.perturb_scene import apply_to_model, mirror_bodies
 from bimanualshift.sim.perturbations import Perturbations
+from bimanualshift.sim.props.clutter import place_clutter
 from bimanualshift.sim.scene import RobosuiteScene
-from bimanualshift.sim.segmentation import SceneInstances
+from bimanualshift.sim.segmentation import NAMED_COLOURS, SceneInstances
 from bimanualshift.sim.task import ACTION_DIM, ROBOT_SEPARATOR, ArmAction, Keyframe, SimHandle, Task
 from bimanualshift.sim.task_registry import make_task, task_class
 
@@ -36,6 +38,7 @@ MODEL_EPISODE_FIELDS = ("body_pos", "body_quat", "geom_rgba", "geom_size", "geom
                         "geom_friction", "body_mass", "jnt_range", "dof_damping", "flex_rgba")
 DATA_STATE_FIELDS = ("qpos", "qvel", "act", "ctrl", "qacc_warmstart")
 MOCAP_STATE_FIELDS = ("mocap_pos", "mocap_quat")  # where a task's mocap bodies (a cable's clamp) hold things
+CLUTTER_STREAM = 0xC1  # the clutter pieces' random stream, apart from the task's own draws
 
 
 @dataclass(frozen=True)
@@ -116,6 +119,8 @@ class ManipulationEnv(gym.Env):
         if self.perturbations.swap_sides:
             half_turned = tuple(self.sim.body_id(name) for name in self.task.mirrored_by_half_turn)
             mirror_bodies(self.model, self.data, self._task_roots, half_turned)
+        if self.perturbations.clutter:
+            self._place_clutter(seed)
         self.keyframe_index = 0
         self.gripper_open = {arm: 1.0 for arm in self.arm_names}
         options = options or {}
@@ -123,6 +128,18 @@ class ManipulationEnv(gym.Env):
             self._settle(steps=5)
         render = bool(options.get("render", True))
         return self.observe(render=render), {"instruction": self.task.instruction()}
+
+    def _place_clutter(self, seed: int | None) -> None:
+        """The clutter pieces among this episode's objects, in its goal objects' colours. Their draws come from a
+        stream of their own, so the task's layout is the same scene's with or without them (paired episodes)."""
+        goal_classes = {split_prompt(p)[1] for p in self.task.goal_nouns()}
+        painted = self.instance_colours()
+        names = [c for n, cls in zip(self.instances.names, self.instances.instance_class)
+                 if self.instances.classes[cls] in goal_classes for c in painted.get(n, [])]
+        colours = [NAMED_COLOURS[c] for c in dict.fromkeys(names)] or list(self.task.palette.values())
+        rng = np.random.default_rng(None if seed is None else [seed, self.perturbations.seed, CLUTTER_STREAM])
+        place_clutter(self.model, self.data, self._task_roots, colours, rng)
+        mujoco.mj_forward(self.model, self.data)
 
     def _reset_physics(self) -> None:
         """Everything back to the compiled scene: model fields, MuJoCo's state (warm start included), the arms at

@@ -10,12 +10,16 @@ An environment is built with one ``Perturbations``; what it changes:
 * ``camera_shift_m`` / ``camera_rotate_deg`` — every static camera moved and turned by up to this much
   (seeded by ``seed``); the observation's extrinsics describe the moved cameras.
 * ``swap_sides`` — the task layout mirrored left to right (y -> -y), so each arm faces the other's job.
+* ``clutter`` — this many look-alike pieces in the goal objects' colours, in both arms' halves of the table, that
+  only the cameras see (``sim.props.clutter``).
 """
 
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, fields
 from typing import Any
+
+MAX_CLUTTER = 8
 
 
 @dataclass(frozen=True)
@@ -28,6 +32,7 @@ class Perturbations:
     camera_shift_m: float = 0.0
     camera_rotate_deg: float = 0.0
     swap_sides: bool = False
+    clutter: int = 0
     seed: int = 0
 
     def __post_init__(self) -> None:
@@ -37,6 +42,8 @@ class Perturbations:
             raise ValueError(f"camera_shift_m must be in [0, 0.3] metres, got {self.camera_shift_m}")
         if not 0.0 <= self.camera_rotate_deg <= 30.0:
             raise ValueError(f"camera_rotate_deg must be in [0, 30] degrees, got {self.camera_rotate_deg}")
+        if not 0 <= self.clutter <= MAX_CLUTTER:
+            raise ValueError(f"clutter must be a count of pieces in [0, {MAX_CLUTTER}], got {self.clutter}")
 
     @property
     def any(self) -> bool:
@@ -54,7 +61,8 @@ class Perturbations:
         return Perturbations(**values)
 
 
-# Named presets for the generalisation study and the CLI's --perturb option.
+# Named presets: the generalisation studies' conditions (Table III's seven and the standard one), each also a value of
+# the CLI's --perturb option.
 PRESETS: dict[str, Perturbations] = {
     "none": Perturbations(),
     "unseen_colours": Perturbations(unseen_colours=True),
@@ -67,7 +75,15 @@ PRESETS: dict[str, Perturbations] = {
 }
 
 
+# Presets that probe where one component of the method should matter, outside the generalisation studies: look-alike
+# clutter for the arm-conditioned projection.
+REGIME_PRESETS: dict[str, Perturbations] = {
+    "clutter": Perturbations(clutter=4),
+}
+
+
 def preset(name: str) -> Perturbations:
-    if name not in PRESETS:
-        raise KeyError(f"unknown perturbation preset {name!r}; choose from {', '.join(PRESETS)}")
-    return PRESETS[name]
+    known = {**PRESETS, **REGIME_PRESETS}
+    if name not in known:
+        raise KeyError(f"unknown perturbation preset {name!r}; choose from {', '.join(known)}")
+    return known[name]

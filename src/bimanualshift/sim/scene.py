@@ -33,6 +33,7 @@ from bimanualshift.geometry.frames import ArmFrame  # noqa: E402
 from bimanualshift.sim.camera_meshes import lighten_visual_meshes  # noqa: E402
 from bimanualshift.sim.cameras import camera_xml  # noqa: E402
 from bimanualshift.sim.layout import TABLE_SIZE, TABLE_TOP_Z  # noqa: E402
+from bimanualshift.sim.props.clutter import clutter_xml  # noqa: E402
 from bimanualshift.sim.robots import PANDA, RobotSpec  # noqa: E402
 from bimanualshift.sim.task import Task  # noqa: E402
 
@@ -87,7 +88,8 @@ class RobosuiteScene(ManipulationEnv):
             extension = ET.SubElement(self.model.root, "extension")
             for plugin in self.task.plugins:
                 ET.SubElement(extension, "plugin", plugin=plugin)
-        objects = ET.fromstring(f"<root>{self.task.scene_xml()}</root>")
+        clutter = clutter_xml(self.task.perturbations.clutter)  # none unless the perturbation asks for it
+        objects = ET.fromstring(f"<root>{self.task.scene_xml()}{clutter}</root>")
         for element in objects:
             if element.tag == "contact":  # pairs and excludes go to the model's own <contact> section
                 self.model.contact.extend(list(element))

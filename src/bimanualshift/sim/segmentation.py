@@ -12,6 +12,7 @@ import mujoco
 import numpy as np
 
 from bimanualshift.core.colours import TRAIN_COLOURS, UNSEEN_COLOURS
+from bimanualshift.sim.props.clutter import CLUTTER_CLASS, CLUTTER_PREFIX
 from bimanualshift.sim.task import Task
 
 ARM_CLASS = "robotic arm"
@@ -43,6 +44,8 @@ class SceneInstances:
                 name, cls = root, ARM_CLASS
             elif root == "table":
                 name, cls = "table", "table"
+            elif root.startswith(CLUTTER_PREFIX):  # the clutter perturbation's pieces: never a goal
+                name, cls = root, CLUTTER_CLASS
             else:
                 # the class of the instance's name, not of the root body's: a rope's root is its first
                 # segment ("rope_B_first"), its instance "rope" and so its class "rope", the goal noun
