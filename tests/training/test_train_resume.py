@@ -221,6 +221,22 @@ def test_residual_with_a_clip_text_encoder_trains_and_reloads(demo_root: Path, t
         env.close()
 
 
+def test_prior_report_chooses_on_validation_seeds_past_every_other_use(tiny_prior: Path, tmp_path: Path) -> None:
+    """A candidate prior is compared on validation scenes no demo, benchmark rollout or rollout choice uses."""
+    import json
+
+    from bimanualshift.cli import main
+    from bimanualshift.data.seeds import PRIOR_CHOICE_START, SPLIT_OFFSETS
+    from bimanualshift.training.closed_loop_choice import SELECTION_ROLLOUT_START
+
+    out = tmp_path / "choice.json"
+    main(["prior-report", "--prior", str(tiny_prior), "--task", "push_button", "--episodes", "1", "--split",
+          "validation", "--out", str(out)])
+    seeds = json.loads(out.read_text())["seeds"]
+    assert seeds == {"validation": [SPLIT_OFFSETS["validation"] + PRIOR_CHOICE_START]}
+    assert PRIOR_CHOICE_START > SELECTION_ROLLOUT_START
+
+
 def test_prior_report_resumes_from_its_episode_log(tiny_prior: Path, tmp_path: Path) -> None:
     import json
     import time

@@ -166,6 +166,9 @@ class PriorReportArgs:
     prior: list[str]  # prior checkpoint folder(s) or shipped name(s)
     task: list[str] = field(default_factory=lambda: ["unimanual"])  # single-arm task(s)
     episodes: int = 50  # test seeds per task
+    # test: the seeds reported numbers come from; validation: seeds for choosing between candidate priors (past every
+    # validation demo's and the benchmark's validation rollouts'), so a choice never reads the test seeds
+    split: Literal["test", "validation"] = "test"
     workers: int = 1  # parallel worker processes
     out: str = ""  # write a result JSON here (e.g. results/priors.json)
     log: str = ""  # per-episode log a stopped report resumes from (default: OUT with .episodes.jsonl)
@@ -174,14 +177,14 @@ class PriorReportArgs:
 
 
 def prior_report(args: PriorReportArgs) -> None:
-    from bimanualshift.data.seeds import split_seeds
+    from bimanualshift.data.seeds import PRIOR_CHOICE_START, split_seeds
     from bimanualshift.evaluation.priors import evaluate_priors, prior_rows
     from bimanualshift.evaluation.report import write_result
     from bimanualshift.evaluation.tables import print_prior_report
 
     names = resolve_tasks(args.task)
     started = time.time()
-    seeds = split_seeds("test", args.episodes)
+    seeds = split_seeds(args.split, args.episodes, start=PRIOR_CHOICE_START if args.split == "validation" else 0)
     log = args.log or (str(Path(args.out).with_suffix(".episodes.jsonl")) if args.out else None)
     deadline = started + 60 * args.minutes if args.minutes else None
     episodes = evaluate_priors(args.prior, names, seeds, workers=args.workers, log=log, deadline=deadline,
@@ -194,9 +197,10 @@ def prior_report(args: PriorReportArgs) -> None:
                  "expert's keyframe count on the same seed; inference is the median of 20 predict calls for one arm "
                  "with 2 torch threads")
         if counts != [args.episodes]:
-            notes = (f"INTERIM: stopped by --minutes with {counts[0]}-{counts[-1]} of {args.episodes} test seeds per "
-                     f"task done (per-episode log {log}); the same command without --minutes finishes it. " + notes)
-        write_result(args.out, command_line(), {"test": seeds}, started, rows, notes=notes, episode_log=log)
+            notes = (f"INTERIM: stopped by --minutes with {counts[0]}-{counts[-1]} of {args.episodes} {args.split} "
+                     f"seeds per task done (per-episode log {log}); the same command without --minutes finishes it. "
+                     + notes)
+        write_result(args.out, command_line(), {args.split: seeds}, started, rows, notes=notes, episode_log=log)
         print(f"wrote {args.out}")
 
 

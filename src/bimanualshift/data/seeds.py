@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 SPLIT_OFFSETS = {"train": 0, "validation": 100_000, "test": 200_000}
+# Where in the validation split candidate priors are compared (prior-report --split validation): past every validation
+# demo (from 0) and the benchmark's validation rollouts (from 10,000) and rollout choices (from 20,000)
+PRIOR_CHOICE_START = 30_000
 
 
 def split_seeds(split: str, count: int, start: int = 0) -> list[int]:
