@@ -76,7 +76,8 @@ def priors_table(result: dict[str, Any]) -> str:
     lines.append("| training time | " + " | ".join(
         f"{r['training_time_s'] / 60:.0f} min" if r.get("training_time_s") else "–" for r in rows) + " |")
     episodes = rows[0]["tasks"][tasks[0]]["episodes"]
-    return "\n".join([*lines, "", f"{episodes} test episodes per task. " + _footer(result)]) + "\n"
+    split = next(iter(result.get("seeds") or {"test": []}))  # a candidate's choice ran on validation seeds
+    return "\n".join([*lines, "", f"{episodes} {split} episodes per task. " + _footer(result)]) + "\n"
 
 
 def _number(x: float) -> str:
