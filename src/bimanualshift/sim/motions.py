@@ -54,12 +54,13 @@ def open_oven_door(frame: OvenFrame, hook_y: float) -> list[ArmAction]:
     return [door(0.0, 0.10), door(0.0), *(door(a) for a in PULL_ANGLES), door(PULL_ANGLES[-1], 0.08)]
 
 
-def pull_tray_out(frame: OvenFrame, tray_world: np.ndarray) -> list[ArmAction]:
+def pull_tray_out(frame: OvenFrame, tray_world: np.ndarray, further: float = 0.0) -> list[ArmAction]:
     """Reach the tray's tab from the front (the oven's ceiling is in the way from above) with the hand
-    pitched towards the oven, pinch it, slide the tray out onto the open door, let go and lift."""
+    pitched towards the oven, pinch it, slide the tray out onto the open door (``further`` past the usual stop),
+    let go and lift."""
     tray = frame.to_local(tray_world)
     tab = np.array([tray[0] + TAB_X, tray[1], TAB_GRASP_Z])
-    out = tab + [TRAY_OUT_X - tray[0], 0.0, 0.0]
+    out = tab + [TRAY_OUT_X - tray[0] - further, 0.0, 0.0]
     # Pitched so the wrist stays below-and-outside the ceiling; the fingers still open across the tab.
     quat = (frame.rotation * Rotation.from_euler("y", -TAB_PITCH) * frame.rotation.inv()
             * Rotation.from_quat(down_quat(frame.yaw))).as_quat()

@@ -13,6 +13,9 @@ MOUTH_X = (0.04, 0.10)  # where the oven's mouth stands (world x), its centre's 
 MOUTH_Y = (-0.06, 0.06)
 YAW = np.pi / 8
 DOOR_OPEN_AT = np.pi / 3  # hinge angle (0 shut, pi/2 level) from which the tray can slide out
+# How much further than the Panda the twin's hand slides the tray out: the Robotiq 140's fingers, opening, push the
+# tab back about 5 cm (the tray ended 5 cm out where it must be 9 cm out, in 7 of 10 seeds); 6 cm more leaves it out
+FURTHER_PULL = {"ur5e": 0.06}
 PHRASINGS = (
     "take the tray out of the oven",
     "take tray out of oven",
@@ -27,6 +30,7 @@ PHRASINGS = (
 @register_task("take_tray_out_of_oven")
 class TakeTrayOutOfOven(Task):
     bimanual = True
+    other_robots = ("ur5e",)  # its expert also runs on the UR5e twin (results/experts_ur5e.json)
     stage_names = ("door open", "tray out")
 
     def scene_xml(self) -> str:
@@ -71,7 +75,7 @@ class TakeTrayOutOfOven(Task):
         door_arm, tray_arm = self.roles(sim)
         side = 1.0 if door_arm == "left" else -1.0
         door = open_oven_door(frame, hook_y=side * 0.04)
-        tray = pull_tray_out(frame, sim.body_pos("tray"))
+        tray = pull_tray_out(frame, sim.body_pos("tray"), FURTHER_PULL.get(self.robot, 0.0))
         wait = hover(frame, np.array([-0.18, -side * 0.20, PLINTH + 0.40]), 1.0)
         parked = hover(frame, np.array([-0.22, side * 0.22, PLINTH + 0.40]), 0.0)
         return zip_arms(**{door_arm: door + [parked] * len(tray), tray_arm: [wait] * len(door) + tray})
