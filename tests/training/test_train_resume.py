@@ -189,6 +189,14 @@ def test_continual_run_starts_from_the_earlier_run_and_keeps_its_memory(demo_roo
         train_residual(cfg("mismatch", init_from=str(first), structured=False))
     with pytest.raises(FileNotFoundError, match="no BimanualShift checkpoint"):
         train_residual(cfg("missing", init_from=str(tmp_path / "nowhere")))
+    # a run saved before a switch existed held that switch's default: it still continues, unless this run turns it on
+    import json
+    saved = json.loads((first / "config.json").read_text())
+    del saved["residual"]["heading_anchor"]
+    (first / "config.json").write_text(json.dumps(saved))
+    train_residual(cfg("older", lr=1e-12, init_from=str(tmp_path / "first"), seed=1))
+    with pytest.raises(ValueError, match="residual config"):
+        train_residual(cfg("anchored", init_from=str(first), heading_anchor=True))
 
 
 def test_without_residual_ablation_keeps_the_projection(tiny_prior: Path) -> None:

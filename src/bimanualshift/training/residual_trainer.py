@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import json
 import time
-from dataclasses import asdict, replace
+from dataclasses import MISSING, asdict, fields, replace
 from pathlib import Path
 from typing import Any
 
@@ -81,7 +81,10 @@ def load_earlier(init_from: str, rcfg: ResidualConfig, retrieval: bool
     # "slot_twin"'s mean grasps come from each task's own demos, so they may differ (and JSON holds them as a list)
     fitted = {"twin_references": None, "heading_anchors": None}  # fitted on each run's own demos
     ours = {**asdict(rcfg), **fitted}
-    if not isinstance(earlier.get("residual"), dict) or {**earlier["residual"], **fitted} != ours:
+    # a switch added after the earlier run was saved held its default there (heading_anchor, say)
+    added = {f.name: f.default for f in fields(rcfg) if f.default is not MISSING}
+    if (not isinstance(earlier.get("residual"), dict)
+            or {**added, **earlier["residual"], **fitted} != ours):
         raise ValueError(f"init_from={init_from!r} has residual config {earlier.get('residual')}, this run needs "
                          f"{asdict(rcfg)}; continue from a run with the same prior, text encoder and switches")
     memory = MemoryBank.load(checkpoint / MEMORY_FILE) if retrieval and (checkpoint / MEMORY_FILE).is_file() else None
